@@ -1,0 +1,168 @@
+"""The ``diffbench`` command line: a thin layer over the Python API.
+
+User errors print one line on stderr and exit with code 2 (never a traceback); an interrupted
+run keeps every finished cell and exits with code 130; the same command resumes it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import methods
+import signals
+from bench import runner, tables
+from bench.store import ResultStore
+
+EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
+
+
+class UsageError(Exception):
+    """A mistake in the command line (reported in one line, exit code 2)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # argparse would print usage and exit itself
+        raise UsageError(message)
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {value}")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="diffbench", description=__doc__.splitlines()[0])
+    commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    commands.add_parser("list", help="methods (parameters, ranges, presets), signals, scenarios")
+
+    run = commands.add_parser("run", help="run every method at its preset on a scenario")
+    run.add_argument("scenario", help="scenario name (see `diffbench list`)")
+    run.add_argument(
+        "--seeds", type=_positive_int, default=10, help="number of noise seeds 0..N-1 (default 10)"
+    )
+    run.add_argument(
+        "--out", type=Path, default=Path("results"), help="results directory (default results/)"
+    )
+    run.add_argument(
+        "--methods", default=None, help="comma-separated method names (default: all registered)"
+    )
+    run.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+    table = commands.add_parser("table", help="render the tables of a stored run again")
+    table.add_argument("scenario")
+    table.add_argument("--out", type=Path, default=Path("results"))
+    return parser
+
+
+def _cmd_list() -> None:
+    print("methods (name: parameter range [tuning range] default; presets)")
+    for name in methods.available():
+        cls = methods.method_class(name)
+        print(f"  {name}  ({'linear' if cls.linear else 'nonlinear'}; {cls.reference})")
+        for spec in methods.params_of(cls):
+            tune = ""
+            if spec.tune_low is not None:
+                scale = ", log" if spec.log else ""
+                tune = f" [tune {spec.tune_low:g}..{spec.tune_high:g}{scale}]"
+            print(
+                f"      {spec.name}: {spec.describe_range()}{tune} default {spec.default!r}"
+                f"  - {spec.doc}"
+            )
+        for key, chosen in cls.presets.items():
+            values = ", ".join(f"{k}={v!r}" for k, v in chosen.values.items())
+            print(f"      preset {key}: {values}  ({chosen.source})")
+    print("signals")
+    for name in signals.available_signals():
+        print(f"  {name}: {signals.get_signal(name)!r}")
+    print("scenarios")
+    for name in signals.available_scenarios():
+        scenario = signals.get_scenario(name)
+        print(f"  {name}: {scenario.description}")
+
+
+def _scenario_dir(out: Path, scenario: str) -> Path:
+    return out / scenario
+
+
+def _render(store: ResultStore, directory: Path, scenario: str) -> list[Path]:
+    rows = store.load()
+    if rows.empty:
+        raise UsageError(f"no stored results in {store.path}; run `diffbench run {scenario}`")
+    title = f"RMSE per method on `{scenario}` (mean ± std over seeds)"
+    return tables.write_rmse_tables(rows, directory, title)
+
+
+def _progress(enabled: bool):
+    if not enabled:
+        return None
+
+    def wrap(items, total):
+        from tqdm import tqdm
+
+        return tqdm(items, total=total, unit="cell", file=sys.stderr, dynamic_ncols=True)
+
+    return wrap
+
+
+def _cmd_run(args: argparse.Namespace) -> None:
+    names = [n.strip() for n in args.methods.split(",") if n.strip()] if args.methods else None
+    cells = runner.preset_cells(args.scenario, range(args.seeds), names)
+    directory = _scenario_dir(args.out, args.scenario)
+    store = ResultStore(directory / "cells.csv")
+    try:
+        summary = runner.run(cells, store, progress=_progress(not args.no_progress))
+    except KeyboardInterrupt:
+        stored = len(store.completed_keys())
+        print(
+            f"diffbench: interrupted; {stored} cells are stored in {store.path}; "
+            "run the same command to resume",
+            file=sys.stderr,
+        )
+        raise SystemExit(EXIT_INTERRUPTED) from None
+    written = _render(store, directory, args.scenario)
+    print(
+        f"{summary.computed} cells computed, {summary.skipped} already stored; "
+        f"wrote {', '.join(str(p) for p in written)}"
+    )
+
+
+def _cmd_table(args: argparse.Namespace) -> None:
+    signals.get_scenario(args.scenario)
+    directory = _scenario_dir(args.out, args.scenario)
+    path = directory / "cells.csv"
+    if not path.exists():
+        raise UsageError(f"no results at {path}; run `diffbench run {args.scenario}` first")
+    for written in _render(ResultStore(path), directory, args.scenario):
+        print(written)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``diffbench`` console script; returns the exit code."""
+    try:
+        args = build_parser().parse_args(argv)
+        if args.command == "list":
+            _cmd_list()
+        elif args.command == "run":
+            _cmd_run(args)
+        elif args.command == "table":
+            _cmd_table(args)
+    except (UsageError, ValueError) as error:
+        message = str(error).splitlines()[0] if str(error) else type(error).__name__
+        print(f"diffbench: error: {message}", file=sys.stderr)
+        return EXIT_USAGE
+    except SystemExit as stop:
+        return int(stop.code or 0)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,116 @@
+"""The runner: expand a benchmark into cells, compute each one, store it at once.
+
+A cell is one method with one parameter set on one scenario realised with one noise seed. A
+cell's numbers depend only on (method, parameters, scenario, seed), so the same seed gives
+bit-identical numbers, and a run that is interrupted resumes by computing only the cells the
+store does not hold yet.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from typing import Any
+
+import methods
+import signals
+from bench.provenance import provenance
+from bench.scores import score_estimate
+from bench.store import ResultStore, canonical_params, cell_key
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One unit of work: ``method`` with ``params`` on ``scenario`` realised with ``seed``."""
+
+    method: str
+    params: Mapping[str, Any]
+    scenario: str
+    seed: int
+    preset: str = field(default="", compare=False)
+
+    @property
+    def key(self) -> str:
+        return cell_key(self.method, self.params, self.scenario, self.seed)
+
+
+def preset_cells(
+    scenario: str, seeds: Iterable[int], method_names: Sequence[str] | None = None
+) -> list[Cell]:
+    """Cells of every registered method (or those named) at the scenario's preset, per seed.
+
+    Raises ``ValueError`` for an unknown scenario or method name.
+    """
+    chosen = signals.get_scenario(scenario)
+    names = list(method_names) if method_names else methods.available()
+    instances = []
+    for name in names:
+        instance, source = methods.preset(name, chosen.preset)
+        instances.append((name, instance.params(), f"{chosen.preset}: {source}"))
+    return [
+        Cell(method=name, params=params, scenario=scenario, seed=int(seed), preset=source)
+        for seed in seeds
+        for name, params, source in instances
+    ]
+
+
+def compute_cell(cell: Cell) -> list[dict[str, Any]]:
+    """Score rows of one cell (pure computation: no I/O)."""
+    scenario = signals.get_scenario(cell.scenario)
+    realisation = scenario.realise(cell.seed)
+    method = methods.get(cell.method, **cell.params)
+    estimate = method(realisation.x, realisation.dt_s)
+    return score_estimate(estimate, realisation.truth, realisation.interior)
+
+
+@dataclass
+class RunSummary:
+    """What a call of :func:`run` did."""
+
+    total: int
+    skipped: int
+    computed: int
+
+
+def run(
+    cells: Sequence[Cell],
+    store: ResultStore,
+    progress: Callable[[Iterable[Cell], int], Iterable[Cell]] | None = None,
+) -> RunSummary:
+    """Compute every cell the store lacks and append each one as soon as it is finished.
+
+    ``progress`` wraps the iterable of pending cells (e.g. a tqdm progress bar). An exception
+    or interruption leaves every finished cell in the store.
+    """
+    done = store.completed_keys()
+    pending = [cell for cell in cells if cell.key not in done]
+    meta = provenance()
+    iterable = progress(pending, len(pending)) if progress else pending
+    computed = 0
+    for cell in iterable:
+        start = time.perf_counter()
+        scores = compute_cell(cell)
+        elapsed = time.perf_counter() - start
+        finished = datetime.now(timezone.utc).isoformat(timespec="seconds")
+        rows = [
+            {
+                "cell_key": cell.key,
+                "method": cell.method,
+                "params": canonical_params(cell.params),
+                "preset": cell.preset,
+                "scenario": cell.scenario,
+                "seed": cell.seed,
+                **score,
+                "cell_rows": len(scores),
+                "git_rev": meta["git_rev"],
+                "versions": meta["versions"],
+                "finished_utc": finished,
+                "elapsed_s": round(elapsed, 6),
+            }
+            for score in scores
+        ]
+        store.append(rows)
+        computed += 1
+    return RunSummary(total=len(cells), skipped=len(cells) - len(pending), computed=computed)

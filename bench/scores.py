@@ -1,0 +1,83 @@
+"""Error scores of an estimate against the exact truth.
+
+Every derivative order is scored on two regions: ``valid``, the samples the method itself
+estimates (its coverage), and ``interior``, a common set of samples fixed by the scenario (the
+same for every method of a comparison, so rankings are fair).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from methods import Estimate
+
+REGIONS = ("valid", "interior")
+ERROR_METRICS = ("rmse", "max_abs", "rel_rmse")
+
+
+def error_metrics(estimate: np.ndarray, truth: np.ndarray, mask: np.ndarray) -> dict[str, float]:
+    """RMSE, max-abs error and RMSE relative to the RMS of the truth, on the masked samples.
+
+    .. math::
+        \\mathrm{rmse} = \\sqrt{\\tfrac{1}{|M|}\\sum_{k\\in M} (\\hat y_k - y_k)^2}, \\quad
+        \\mathrm{rel\\_rmse} = \\mathrm{rmse} \\Big/ \\sqrt{\\tfrac{1}{|M|}\\sum_{k\\in M} y_k^2}
+
+    ``estimate`` may carry channels on its trailing axes; they are all compared with ``truth``
+    broadcast over them. An empty mask raises ``ValueError``.
+    """
+    mask = np.asarray(mask, dtype=bool)
+    if not mask.any():
+        raise ValueError("`mask` selects no samples to score")
+    est = np.asarray(estimate)[mask]
+    ref = np.asarray(truth)[mask].reshape((-1,) + (1,) * (est.ndim - 1))
+    error = est - ref
+    rmse = float(np.sqrt(np.mean(error**2)))
+    scale = float(np.sqrt(np.mean(np.broadcast_to(ref, est.shape) ** 2)))
+    return {
+        "rmse": rmse,
+        "max_abs": float(np.max(np.abs(error))),
+        "rel_rmse": rmse / scale if scale > 0 else float("inf"),
+    }
+
+
+def score_estimate(
+    estimate: Estimate, truth, interior: np.ndarray
+) -> list[dict[str, float | int | str]]:
+    """Tidy score rows (order, region, metric, value) of ``estimate`` against ``truth``.
+
+    ``truth[n]`` is the exact derivative of order n. Besides the error metrics of each order
+    on both regions, each order gets ``coverage`` (fraction of samples the method estimates)
+    and ``interior_coverage`` (fraction of the interior it estimates; interior errors are taken
+    on the part it covers).
+    """
+    interior = np.asarray(interior, dtype=bool)
+    rows: list[dict[str, float | int | str]] = []
+    for order in estimate.orders:
+        valid = estimate.valid[order]
+        regions = {"valid": valid, "interior": interior & valid}
+        for region in REGIONS:
+            if regions[region].any():
+                metrics = error_metrics(estimate[order], truth[order], regions[region])
+            else:
+                metrics = dict.fromkeys(ERROR_METRICS, float("nan"))
+            rows += [
+                {"order": order, "region": region, "metric": metric, "value": value}
+                for metric, value in metrics.items()
+            ]
+        rows.append(
+            {
+                "order": order,
+                "region": "valid",
+                "metric": "coverage",
+                "value": float(np.mean(valid)),
+            }
+        )
+        rows.append(
+            {
+                "order": order,
+                "region": "interior",
+                "metric": "coverage",
+                "value": float(np.count_nonzero(regions["interior"]) / interior.sum()),
+            }
+        )
+    return rows

@@ -1,0 +1,52 @@
+"""diffbench methods: WHAT is compared.
+
+Every differentiator is a small frozen class registered by name::
+
+    >>> import methods
+    >>> sg = methods.get("savitzky_golay", window_s=0.05, degree=3)
+    >>> estimate = sg(x, dt=0.001)        # doctest: +SKIP
+    >>> estimate[1], estimate.valid[1]    # doctest: +SKIP
+
+``available()`` lists the names, ``method_class(name)`` gives the class with its parameter
+specifications (``params_of``) and presets, ``preset(name, key)`` an instance at a preset.
+"""
+
+# Importing the family modules registers their methods (heavy libraries load lazily).
+from methods import butterworth, finite_difference, savitzky_golay, sindy
+from methods._registry import (
+    Estimate,
+    Method,
+    Param,
+    Preset,
+    available,
+    central_mask,
+    get,
+    method_class,
+    param,
+    params_of,
+    preset,
+    register,
+)
+from methods._validation import MAX_ORDER, check_signal, uniform_step
+
+__all__ = [
+    "MAX_ORDER",
+    "Estimate",
+    "Method",
+    "Param",
+    "Preset",
+    "available",
+    "butterworth",
+    "central_mask",
+    "check_signal",
+    "finite_difference",
+    "get",
+    "method_class",
+    "param",
+    "params_of",
+    "preset",
+    "register",
+    "savitzky_golay",
+    "sindy",
+    "uniform_step",
+]

@@ -1,0 +1,83 @@
+"""Local least-squares polynomial filters (Savitzky-Golay and weighted variants), computed in a
+well-conditioned basis.
+
+``scipy.signal.savgol_coeffs`` solves the raw Vandermonde system on integer offsets; in
+scipy 1.17 its coefficients lose all accuracy for long windows with high degrees (e.g. 211
+samples, degree 7: the smoothing taps sum to 6.5e-7 instead of 1; scipy issue #20825). Here the
+offsets are scaled to [-1, 1] and the fit is done in the Legendre basis with a QR
+factorisation, which stays at rounding level for the windows and degrees this project uses;
+scipy remains the test oracle where it is accurate.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.polynomial import legendre
+
+from methods._fir import apply_central_fir
+
+
+def local_polynomial_weights(
+    half_width: int,
+    degree: int,
+    order: int,
+    at: np.ndarray,
+    dt: float = 1.0,
+    sample_weights: np.ndarray | None = None,
+) -> np.ndarray:
+    """Weights giving the ``order``-th derivative, at offsets ``at``, of the (weighted)
+    least-squares polynomial of ``degree`` fitted to ``2*half_width + 1`` samples.
+
+    .. math::
+        \\hat p = \\arg\\min_{\\deg p \\le d} \\sum_{j=-m}^{m} w_j (x_j - p(j\\,\\Delta t))^2,
+        \\qquad \\hat p^{(n)}(a\\,\\Delta t) = \\sum_j W_{a,j} x_j
+
+    Returns ``W`` with shape ``(len(at), 2m+1)``. With unit sample weights and ``at = [0]``
+    this is the Savitzky-Golay filter (``scipy.signal.savgol_coeffs(2m+1, d, deriv=n,
+    delta=dt, use="dot")``). Exact on sampled polynomials of degree <= ``degree``.
+    """
+    if half_width < 1:
+        raise ValueError(f"`half_width` must be >= 1, got {half_width}")
+    if not 0 <= degree <= 2 * half_width:
+        raise ValueError(f"`degree` must be in [0, {2 * half_width}], got {degree}")
+    offsets = np.arange(-half_width, half_width + 1) / half_width  # u in [-1, 1]
+    basis = legendre.legvander(offsets, degree)
+    root_w = np.ones_like(offsets) if sample_weights is None else np.sqrt(sample_weights)
+    q, r = np.linalg.qr(basis * root_w[:, np.newaxis])
+    # Row k: d^n/du^n of the Legendre polynomial P_k at each evaluation point.
+    at_u = np.atleast_1d(np.asarray(at, dtype=np.float64)) / half_width
+    derivative_rows = np.empty((at_u.size, degree + 1))
+    for k in range(degree + 1):
+        unit = np.zeros(degree + 1)
+        unit[k] = 1.0
+        derivative_rows[:, k] = legendre.legval(at_u, legendre.legder(unit, order))
+    # p(u) = basis(u) c, with c = R^{-1} Q^T sqrt(w) x; du/dt = 1/(m dt).
+    weights = np.linalg.solve(r.T, derivative_rows.T).T @ q.T * root_w[np.newaxis, :]
+    return weights / (half_width * dt) ** order
+
+
+def savitzky_golay_filter(
+    x: np.ndarray, half_width: int, degree: int, order: int, dt: float
+) -> np.ndarray:
+    """Savitzky-Golay estimate of the ``order``-th derivative of ``x`` along axis 0.
+
+    Interior samples use the central weights; the first and last ``half_width`` samples use the
+    polynomial fitted to the first/last full window (scipy's ``mode="interp"``).
+    """
+    m, n = half_width, x.shape[0]
+    window = 2 * m + 1
+    if n < window:
+        raise ValueError(f"`x` has {n} samples, fewer than the window's {window}")
+    if order > degree:
+        return np.zeros_like(x)
+    central = local_polynomial_weights(m, degree, order, np.array([0.0]), dt)[0]
+    y, _ = apply_central_fir(x, central)
+    edge = local_polynomial_weights(m, degree, order, np.arange(-m, 0, dtype=float), dt)
+    flat = x.reshape(n, -1)
+    out = y.reshape(n, -1)
+    out[:m] = edge @ flat[:window]
+    # The right end mirrors the left: offsets 1..m, weights reversed and signed by (-1)^n.
+    out[n - m :] = (math.pow(-1, order) * edge[::-1, ::-1]) @ flat[n - window :]
+    return y

@@ -1,0 +1,265 @@
+"""The method registry: a method is one frozen dataclass registered by name with a decorator.
+
+Each hyperparameter is a dataclass field declared with :func:`param`, which records its
+admissible range (checked on construction), its tuning range and scale, and a description.
+Presets (the paper's settings, or ours where the paper has none) are declared on the class.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from methods._validation import check_dt, check_orders, check_signal
+
+_REGISTRY: dict[str, type[Method]] = {}
+
+
+@dataclass(frozen=True)
+class Param:
+    """Specification of one hyperparameter.
+
+    ``low``/``high`` bound the admissible values (open or closed ends); ``tune_low`` and
+    ``tune_high`` bound the range a tuner searches, on a log scale when ``log`` is true.
+    """
+
+    name: str
+    default: Any
+    low: float = -math.inf
+    high: float = math.inf
+    low_open: bool = False
+    high_open: bool = False
+    integer: bool = False
+    choices: tuple | None = None
+    tune_low: float | None = None
+    tune_high: float | None = None
+    log: bool = False
+    doc: str = ""
+
+    def describe_range(self) -> str:
+        """The admissible range as text, e.g. ``(0, inf)`` or ``{2, 4, 6}``."""
+        if self.choices is not None:
+            return "{" + ", ".join(str(c) for c in self.choices) + "}"
+        left = "(" if self.low_open or math.isinf(self.low) else "["
+        right = ")" if self.high_open or math.isinf(self.high) else "]"
+        return f"{left}{_fmt(self.low)}, {_fmt(self.high)}{right}"
+
+    def check(self, value: Any) -> int | float:
+        """Return ``value`` as a plain int/float, or raise ``ValueError`` naming this parameter."""
+        kind = "an integer" if self.integer else "a finite number"
+        allowed = f"{kind} in {self.describe_range()}"
+        if self.choices is not None:
+            allowed = f"one of {self.describe_range()}"
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+            raise ValueError(f"`{self.name}` must be {allowed}, got {value!r}")
+        if not math.isfinite(value):
+            raise ValueError(f"`{self.name}` must be {allowed}, got {value!r}")
+        if self.integer:
+            if not float(value).is_integer():
+                raise ValueError(f"`{self.name}` must be {allowed}, got {value!r}")
+            value = int(value)
+        else:
+            value = float(value)
+        if self.choices is not None:
+            if value not in self.choices:
+                raise ValueError(f"`{self.name}` must be {allowed}, got {value!r}")
+            return value
+        too_low = value <= self.low if self.low_open else value < self.low
+        too_high = value >= self.high if self.high_open else value > self.high
+        if too_low or too_high:
+            raise ValueError(f"`{self.name}` must be {allowed}, got {value!r}")
+        return value
+
+
+def _fmt(value: float) -> str:
+    if math.isinf(value):
+        return "inf" if value > 0 else "-inf"
+    return f"{value:g}"
+
+
+def param(default: Any, **spec: Any) -> Any:
+    """Declare a hyperparameter field of a method class (see :class:`Param` for ``spec``)."""
+    return dataclasses.field(default=default, metadata={"param": spec})
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A named set of hyperparameter values with where it comes from."""
+
+    values: Mapping[str, Any]
+    source: str
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """What a method returns: the smoothed signal and derivatives, and where they are valid.
+
+    ``values[n]`` has the shape of the input; ``valid[n]`` is a boolean mask over axis 0 (time).
+    Invalid samples (e.g. where a central window does not fit) hold NaN; valid ones are finite.
+    """
+
+    values: Mapping[int, np.ndarray]
+    valid: Mapping[int, np.ndarray]
+
+    def __post_init__(self) -> None:
+        if set(self.values) != set(self.valid):
+            raise ValueError("`values` and `valid` must have the same derivative orders")
+        for order, value in self.values.items():
+            mask = self.valid[order]
+            if mask.shape != value.shape[:1]:
+                raise ValueError(f"valid mask of order {order} does not match the time axis")
+            finite = np.isfinite(value).reshape(value.shape[0], -1).all(axis=1)
+            if not np.array_equal(finite, mask):
+                raise ValueError(
+                    f"order {order}: the estimate is not finite exactly on its valid samples"
+                )
+
+    @property
+    def orders(self) -> tuple[int, ...]:
+        return tuple(sorted(self.values))
+
+    def __getitem__(self, order: int) -> np.ndarray:
+        if order not in self.values:
+            raise ValueError(f"`order` {order!r} was not estimated; available: {self.orders}")
+        return self.values[order]
+
+    def coverage(self, order: int) -> float:
+        """Fraction of samples on which the derivative of ``order`` is valid."""
+        return float(np.mean(self.valid[order]))
+
+
+def central_mask(n_samples: int, half_width: int) -> np.ndarray:
+    """Mask of the samples a central window of ``2*half_width + 1`` samples can reach."""
+    mask = np.zeros(n_samples, dtype=bool)
+    mask[half_width : n_samples - half_width] = True
+    return mask
+
+
+class Method:
+    """Base of every registered method: validation and the call contract.
+
+    Subclasses are frozen dataclasses whose fields are declared with :func:`param`; they
+    implement ``_estimate(x, dt, orders) -> (values, valid)`` and may override
+    ``min_samples(dt)`` (shortest signal they accept), ``check_step(dt)`` (checks that depend on
+    the sampling step) and ``exact_degree(order)`` (polynomial degree reproduced exactly).
+    """
+
+    name: ClassVar[str] = ""
+    linear: ClassVar[bool] = True
+    time_symmetric: ClassVar[bool] = True
+    presets: ClassVar[Mapping[str, Preset]] = {}
+    reference: ClassVar[str] = ""
+
+    def __post_init__(self) -> None:
+        for spec in params_of(type(self)):
+            object.__setattr__(self, spec.name, spec.check(getattr(self, spec.name)))
+
+    def __call__(self, x, dt: float, orders=(0, 1, 2)) -> Estimate:
+        """Estimate the derivatives of ``orders`` of samples ``x`` taken every ``dt`` seconds."""
+        orders = check_orders(orders)
+        dt = check_dt(dt)
+        self.check_step(dt)
+        x, dt = check_signal(x, dt, min_samples=self.min_samples(dt))
+        values, valid = self._estimate(x, dt, orders)
+        return Estimate(values=values, valid=valid)
+
+    def params(self) -> dict[str, Any]:
+        """The hyperparameter values of this instance."""
+        return {spec.name: getattr(self, spec.name) for spec in params_of(type(self))}
+
+    def min_samples(self, dt: float) -> int:
+        return 2
+
+    def check_step(self, dt: float) -> None:
+        return None
+
+    def exact_degree(self, order: int) -> float | None:
+        """Highest polynomial degree whose derivative of ``order`` is reproduced exactly on the
+        valid samples (``math.inf``: any degree; ``None``: not exact for any degree)."""
+        return None
+
+    def _estimate(self, x: np.ndarray, dt: float, orders: tuple[int, ...]):
+        raise NotImplementedError
+
+
+def params_of(cls: type[Method]) -> tuple[Param, ...]:
+    """The parameter specifications of a method class, in declaration order."""
+    specs = []
+    for field in dataclasses.fields(cls):
+        spec = field.metadata.get("param")
+        if spec is None:
+            raise TypeError(f"{cls.__name__}.{field.name} must be declared with methods.param()")
+        specs.append(Param(name=field.name, default=field.default, **spec))
+    return tuple(specs)
+
+
+def register(name: str):
+    """Class decorator registering a method under ``name``.
+
+    The class is made a frozen dataclass; a duplicate name, a parameter not declared with
+    :func:`param`, or a preset naming an unknown parameter or an out-of-range value is an error.
+    """
+
+    def decorate(cls: type[Method]) -> type[Method]:
+        if name in _REGISTRY:
+            raise ValueError(f"a method named {name!r} is already registered")
+        if not issubclass(cls, Method):
+            raise TypeError(f"{cls.__name__} must subclass methods.Method")
+        cls = dataclass(frozen=True)(cls)
+        specs = {spec.name: spec for spec in params_of(cls)}
+        for key, preset in cls.presets.items():
+            unknown = set(preset.values) - set(specs)
+            if unknown:
+                raise ValueError(f"{name}: preset {key!r} names unknown parameters {unknown}")
+            for pname, value in preset.values.items():
+                specs[pname].check(value)
+        cls.name = name
+        _REGISTRY[name] = cls
+        return cls
+
+    return decorate
+
+
+def available() -> list[str]:
+    """Names of the registered methods, sorted."""
+    return sorted(_REGISTRY)
+
+
+def method_class(name: str) -> type[Method]:
+    """The class registered as ``name``; an unknown name lists the valid ones."""
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise ValueError(
+            f"unknown method {name!r}; available: {', '.join(sorted(_REGISTRY))}"
+        ) from None
+
+
+def get(name: str, **params: Any) -> Method:
+    """An instance of method ``name`` with the given hyperparameters (the rest at defaults)."""
+    cls = method_class(name)
+    valid = [spec.name for spec in params_of(cls)]
+    unknown = sorted(set(params) - set(valid))
+    if unknown:
+        raise ValueError(
+            f"unknown parameter(s) {', '.join(unknown)} for method {name!r}; "
+            f"valid: {', '.join(valid) or '(none)'}"
+        )
+    return cls(**params)
+
+
+def preset(name: str, key: str) -> tuple[Method, str]:
+    """Method ``name`` with its preset ``key`` and the preset's source.
+
+    A method without that preset gets its class defaults (source ``"class defaults"``).
+    """
+    cls = method_class(name)
+    chosen = cls.presets.get(key)
+    if chosen is None:
+        return cls(), "class defaults"
+    return cls(**chosen.values), chosen.source

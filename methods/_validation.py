@@ -1,0 +1,123 @@
+"""Input checks shared by every method: done once, at the boundary, with messages that name
+the argument and say what is allowed."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+
+import numpy as np
+
+MAX_ORDER = 2
+
+
+def check_dt(dt: float) -> float:
+    """Return ``dt`` as a float, or raise ``ValueError`` if it is not a finite number > 0."""
+    try:
+        value = float(dt)
+    except (TypeError, ValueError):
+        raise ValueError(f"`dt` must be a finite number > 0 (seconds), got {dt!r}") from None
+    if not math.isfinite(value) or value <= 0:
+        raise ValueError(f"`dt` must be a finite number > 0 (seconds), got {dt!r}")
+    return value
+
+
+def check_signal(x, dt: float, min_samples: int = 2) -> tuple[np.ndarray, float]:
+    """Validate samples and sampling step; return ``(x, dt)`` as float64 array and float.
+
+    Parameters
+    ----------
+    x : array_like, shape (n,) or (n, ...)
+        Samples, time on axis 0; further axes are channels.
+    dt : float
+        Sampling step in seconds, finite and > 0.
+    min_samples : int
+        Least number of samples the caller needs (e.g. its window length).
+
+    Raises
+    ------
+    ValueError
+        If ``x`` is not numeric, is 0-d, has fewer than ``min_samples`` samples on axis 0, or
+        holds NaN or inf; if ``dt`` is not finite and > 0.
+    """
+    dt = check_dt(dt)
+    try:
+        array = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"`x` must be an array of real numbers, got {type(x).__name__}") from None
+    if array.ndim == 0:
+        raise ValueError("`x` must have time on axis 0 (shape (n,) or (n, channels)), got a scalar")
+    if array.shape[0] < min_samples:
+        raise ValueError(
+            f"`x` has {array.shape[0]} samples on axis 0; at least {min_samples} are needed "
+            "(a window longer than the signal?)"
+        )
+    if array.size and not np.all(np.isfinite(array)):
+        bad = int(np.count_nonzero(~np.isfinite(array)))
+        raise ValueError(f"`x` holds {bad} NaN or inf values; clean or interpolate them first")
+    return array, dt
+
+
+def check_orders(orders: Iterable[int]) -> tuple[int, ...]:
+    """Return the sorted, de-duplicated derivative orders, each an int in 0..MAX_ORDER."""
+    result = []
+    for order in orders:
+        if isinstance(order, bool) or not isinstance(order, (int, np.integer)):
+            raise ValueError(f"`orders` must hold integers 0..{MAX_ORDER}, got {order!r}")
+        if not 0 <= order <= MAX_ORDER:
+            raise ValueError(f"`orders` must hold integers 0..{MAX_ORDER}, got {int(order)}")
+        result.append(int(order))
+    if not result:
+        raise ValueError(f"`orders` must name at least one derivative order in 0..{MAX_ORDER}")
+    return tuple(sorted(set(result)))
+
+
+def samples_in_span(name: str, span_s: float, dt: float, *, odd: bool = False) -> int:
+    """Number of sampling intervals in ``span_s`` seconds; it must be a whole number.
+
+    A span of ``k`` intervals covers ``k + 1`` samples (node convention: the outer samples lie
+    on the ends of the window). With ``odd=True`` the sample count must be odd (``k`` even), as
+    a central window needs. ``span_s / dt`` is accepted as whole within 1e-9 relative.
+    """
+    ratio = span_s / dt
+    intervals = round(ratio)
+    if intervals < 1 or abs(ratio - intervals) > 1e-9 * max(1.0, abs(ratio)):
+        raise ValueError(
+            f"`{name}`={span_s!r} s is {ratio:.6g} sampling steps of dt={dt!r} s; it must be a "
+            f"whole number of steps, e.g. {max(intervals, 2) * dt!r}"
+        )
+    if odd and intervals % 2:
+        raise ValueError(
+            f"`{name}`={span_s!r} s spans {intervals} steps of dt={dt!r} s, i.e. {intervals + 1} "
+            f"samples; a central window needs an odd sample count: use {(intervals - 1) * dt!r} "
+            f"or {(intervals + 1) * dt!r}"
+        )
+    return intervals
+
+
+def uniform_step(t) -> float:
+    """Return the sampling step of a uniform, increasing time vector ``t``.
+
+    Raises ``ValueError`` if ``t`` is not 1-D, has fewer than 2 samples, holds NaN/inf, is not
+    strictly increasing, or its steps differ by more than 1e-6 relative (resample it first).
+    """
+    times = np.asarray(t, dtype=np.float64)
+    if times.ndim != 1 or times.size < 2:
+        raise ValueError(f"`t` must be a 1-D array of at least 2 times, got shape {times.shape}")
+    if not np.all(np.isfinite(times)):
+        raise ValueError("`t` holds NaN or inf values")
+    steps = np.diff(times)
+    if np.any(steps <= 0):
+        first = int(np.argmax(steps <= 0))
+        raise ValueError(
+            f"`t` must be strictly increasing; t[{first + 1}]={float(times[first + 1])!r} <= "
+            f"t[{first}]={float(times[first])!r} (sort it and drop duplicates)"
+        )
+    dt = (times[-1] - times[0]) / (times.size - 1)
+    spread = float(np.max(np.abs(steps - dt)))
+    if spread > 1e-6 * dt:
+        raise ValueError(
+            f"`t` is not uniformly sampled (steps differ from the mean {dt!r} s by up to "
+            f"{spread:.3g} s); resample to a uniform grid first"
+        )
+    return float(dt)

@@ -1,0 +1,87 @@
+"""Savitzky-Golay filters: local least-squares polynomial fits on a sliding window."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from methods._local_poly import savitzky_golay_filter
+from methods._registry import Method, Preset, param, register
+from methods._validation import samples_in_span
+
+
+@register("savitzky_golay")
+class SavitzkyGolay(Method):
+    """Least-squares polynomial of ``degree`` on a centred window, differentiated at its centre.
+
+    .. math::
+        \\hat x^{(n)}_k = \\frac{d^n}{dt^n} \\hat p_k(t_k), \\qquad
+        \\hat p_k = \\arg\\min_{\\deg p \\le d} \\sum_{j=-m}^{m} (x_{k+j} - p(t_{k+j}))^2
+
+    the same numbers as ``scipy.signal.savgol_filter(x, 2m+1, d, deriv=n, delta=dt, axis=0,
+    mode="interp")``, computed in a well-conditioned Legendre basis (scipy 1.17's coefficients
+    lose all accuracy for long windows with high degrees, e.g. 211 samples at degree 7; see
+    :mod:`methods._local_poly`); scipy is the test oracle where it is accurate. The
+    window spans ``window_s = 2m * dt`` (outer samples on the window's ends; ``2m + 1`` samples,
+    odd), the same node convention as the Jacobi window T. Near the ends scipy's ``"interp"``
+    mode evaluates the polynomial fitted to the first/last full window, so every sample is
+    estimated (valid everywhere). Exact on polynomials of degree <= ``degree``.
+
+    Parameters
+    ----------
+    window_s : float > 0
+        Window span in seconds; ``window_s / dt`` must be an even whole number.
+    degree : int in [0, 20]
+        Degree of the local polynomial; must be below the window's sample count.
+
+    References
+    ----------
+    A. Savitzky, M. J. E. Golay, Anal. Chem. 36 (1964) 1627-1639; R. W. Schafer, "What is a
+    Savitzky-Golay filter?", IEEE Signal Processing Magazine 28(4) (2011) 111-117.
+    """
+
+    window_s: float = param(
+        0.1,
+        low=0.0,
+        low_open=True,
+        tune_low=0.004,
+        tune_high=1.0,
+        log=True,
+        doc="window span 2m*dt in seconds (odd sample count)",
+    )
+    degree: int = param(
+        3, low=0, high=20, integer=True, tune_low=1, tune_high=11, doc="polynomial degree"
+    )
+
+    presets = {
+        "paper-signal": Preset(
+            {"window_s": 0.21, "degree": 7},
+            "diffbench (not in the paper): the paper's Jacobi window T = 0.21 s and the degree "
+            "of the Jacobi velocity estimate, n + q + 1 = 7 minus... see README",
+        ),
+    }
+    reference = "Savitzky & Golay (1964)"
+
+    def _samples(self, dt: float) -> int:
+        return samples_in_span("window_s", self.window_s, dt, odd=True) + 1
+
+    def check_step(self, dt: float) -> None:
+        samples = self._samples(dt)
+        if self.degree >= samples:
+            raise ValueError(
+                f"`degree`={self.degree} must be below the window's {samples} samples "
+                f"(window_s={self.window_s!r} s at dt={dt!r} s)"
+            )
+
+    def min_samples(self, dt: float) -> int:
+        return self._samples(dt)
+
+    def exact_degree(self, order: int) -> float | None:
+        return self.degree
+
+    def _estimate(self, x, dt, orders):
+        half_width = self._samples(dt) // 2
+        valid = np.ones(x.shape[0], dtype=bool)
+        values = {
+            order: savitzky_golay_filter(x, half_width, self.degree, order, dt) for order in orders
+        }
+        return values, {order: valid.copy() for order in orders}

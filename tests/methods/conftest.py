@@ -1,0 +1,25 @@
+"""Method instances every contract test runs on: defaults, each preset, and extra settings."""
+
+import pytest
+
+import methods
+
+EXTRA = {
+    "finite_difference": [{"accuracy_order": 4}, {"accuracy_order": 6}],
+    "savitzky_golay": [{"window_s": 0.05, "degree": 2}, {"window_s": 0.03, "degree": 5}],
+    "sindy_smoothing": [{"window_s": 0.05, "degree": 5, "accuracy_order": 4}],
+    "butterworth": [{"order": 2, "cutoff_hz": 40.0}],
+}
+
+
+def method_cases():
+    cases = []
+    for name in methods.available():
+        if name.startswith("_test"):
+            continue
+        cls = methods.method_class(name)
+        settings = [("defaults", {})]
+        settings += [(f"preset-{key}", dict(p.values)) for key, p in cls.presets.items()]
+        settings += [(f"extra{i}", params) for i, params in enumerate(EXTRA.get(name, []))]
+        cases += [pytest.param(name, params, id=f"{name}-{label}") for label, params in settings]
+    return cases

@@ -1,0 +1,157 @@
+"""Contract tests generated from the registry: every method, every preset.
+
+Exact truth throughout: sampled polynomials of the degree a method claims to reproduce, the
+analytic derivatives of the paper's test signal, and algebraic identities (linearity, time
+reversal, channel independence).
+"""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+import methods
+from tests.methods.conftest import method_cases
+
+DT = 1e-3
+
+
+def _polynomial(degree: int, rng: np.random.Generator):
+    coefficients = rng.uniform(-1, 1, degree + 1)
+    poly = np.polynomial.Polynomial(coefficients)
+    return poly, [poly, poly.deriv(1), poly.deriv(2)]
+
+
+@pytest.mark.parametrize(("name", "params"), method_cases())
+def test_finite_output_of_the_right_shape(name, params):
+    method = methods.get(name, **params)
+    x = np.random.default_rng(0).standard_normal(1500)
+    estimate = method(x, DT)
+    assert estimate.orders == (0, 1, 2)
+    for order in estimate.orders:
+        assert estimate[order].shape == x.shape
+        assert np.isfinite(estimate[order][estimate.valid[order]]).all()
+        assert estimate.coverage(order) > 0.5
+
+
+@pytest.mark.parametrize(("name", "params"), method_cases())
+def test_constant_input_gives_zero_derivatives(name, params):
+    method = methods.get(name, **params)
+    estimate = method(np.full(1500, 3.25), DT)
+    valid = estimate.valid
+    np.testing.assert_allclose(estimate[0][valid[0]], 3.25, rtol=1e-12)
+    # Rounding of 3.25 times taps of size up to ~1/dt^n: the bound scales with dt^-n.
+    np.testing.assert_allclose(estimate[1][valid[1]], 0.0, atol=1e-9 / DT)
+    np.testing.assert_allclose(estimate[2][valid[2]], 0.0, atol=1e-9 / DT**2)
+
+
+@pytest.mark.parametrize(("name", "params"), method_cases())
+def test_exact_on_polynomials_of_the_claimed_degree(name, params):
+    method = methods.get(name, **params)
+    t = np.linspace(-1.0, 1.0, 2001)
+    dt = t[1] - t[0]
+    rng = np.random.default_rng(7)
+    checked = 0
+    for order in (0, 1, 2):
+        degree = method.exact_degree(order)
+        if degree is None:
+            continue
+        degree = int(min(degree, 8))
+        _, truth = _polynomial(degree, rng)
+        estimate = method(truth[0](t), dt, orders=(order,))
+        valid = estimate.valid[order]
+        exact = truth[order](t)
+        scale = 1.0 + np.max(np.abs(exact))
+        # Rounding only: taps of size ~dt^-order applied to O(1) samples.
+        tolerance = 1e-10 * dt**-order * scale
+        np.testing.assert_allclose(estimate[order][valid], exact[valid], rtol=0, atol=tolerance)
+        checked += 1
+    assert checked, f"{name} claims exactness for no order"
+
+
+@pytest.mark.parametrize(("name", "params"), method_cases())
+def test_not_exact_one_degree_above_the_claim(name, params):
+    """The claim is sharp: one degree higher the error jumps far above rounding (so the
+    exactness test above can fail). The signal is a monomial in u = (t - t_mid) / L on a
+    signal just longer than the method needs, with L a tenth of its length, so that the
+    truncation error (powers of dt / L) stands far above rounding."""
+    method = methods.get(name, **params)
+    n_samples = method.min_samples(DT) + 40
+    t = np.arange(n_samples) * DT
+    scale_s = n_samples * DT / 10
+    u = (t - t[n_samples // 2]) / scale_s
+
+    def error(degree, order):  # in units of the derivative of u^degree's natural size 1/L^n
+        poly = np.polynomial.Polynomial.basis(degree)
+        estimate = method(poly(u), DT, orders=(order,))
+        valid = estimate.valid[order]
+        truth = poly.deriv(order)(u) / scale_s**order
+        return np.max(np.abs(estimate[order][valid] - truth[valid])) * scale_s**order
+
+    for order in (1, 2):
+        degree = method.exact_degree(order)
+        if degree is None or math.isinf(degree):
+            continue
+        degree = int(degree)
+        below = error(degree, order)
+        above = error(degree + 1, order)
+        assert above > max(1e3 * below, 1e-6), (order, degree, below, above)
+
+
+@pytest.mark.parametrize(("name", "params"), method_cases())
+def test_channels_are_differentiated_independently(name, params):
+    method = methods.get(name, **params)
+    rng = np.random.default_rng(3)
+    x = rng.standard_normal((800, 2, 3))
+    together = method(x, DT)
+    for i in range(2):
+        for j in range(3):
+            alone = method(x[:, i, j], DT)
+            for order in (0, 1, 2):
+                np.testing.assert_array_equal(together.valid[order], alone.valid[order])
+                np.testing.assert_allclose(
+                    together[order][:, i, j], alone[order], rtol=1e-12, atol=1e-9 / DT**order
+                )
+
+
+@pytest.mark.parametrize(("name", "params"), method_cases())
+def test_central_methods_are_symmetric_under_time_reversal(name, params):
+    method = methods.get(name, **params)
+    if not method.time_symmetric:
+        pytest.skip(f"{name} is not time-symmetric by construction")
+    x = np.random.default_rng(11).standard_normal(900)
+    forward, backward = method(x, DT), method(x[::-1], DT)
+    for order in (0, 1, 2):
+        np.testing.assert_array_equal(backward.valid[order], forward.valid[order][::-1])
+        valid = forward.valid[order]
+        np.testing.assert_allclose(
+            backward[order][::-1][valid],
+            (-1) ** order * forward[order][valid],
+            rtol=1e-9,
+            atol=1e-9 / DT**order,
+        )
+
+
+def _linear_cases():
+    return [case for case in method_cases() if methods.method_class(case.values[0]).linear]
+
+
+@pytest.mark.parametrize(("name", "params"), _linear_cases())
+@given(
+    x=arrays(np.float64, 400, elements=st.floats(-10, 10)),
+    y=arrays(np.float64, 400, elements=st.floats(-10, 10)),
+    a=st.floats(-5, 5),
+    b=st.floats(-5, 5),
+)
+def test_linear_methods_are_linear(name, params, x, y, a, b):
+    method = methods.get(name, **params)
+    combined = method(a * x + b * y, DT)
+    dx, dy = method(x, DT), method(y, DT)
+    for order in (0, 1, 2):
+        valid = combined.valid[order]
+        expected = a * dx[order][valid] + b * dy[order][valid]
+        scale = (abs(a) + abs(b) + 1) * 10 * DT**-order
+        np.testing.assert_allclose(combined[order][valid], expected, rtol=0, atol=1e-10 * scale)

@@ -1,0 +1,184 @@
+"""Each method against a well-kept library called directly, and against the analytic
+response of the paper's test signal."""
+
+import numpy as np
+import pytest
+from scipy import signal as sps
+
+import methods
+from methods._local_poly import local_polynomial_weights
+from methods.finite_difference import central_difference_weights
+
+DT = 1e-3
+
+
+def _pysindy_fd_weights(order, accuracy):
+    from pysindy import FiniteDifference
+
+    return FiniteDifference(order=accuracy, d=order)._constant_coefficients(1.0)
+
+
+@pytest.mark.parametrize("order", [1, 2])
+@pytest.mark.parametrize("accuracy", [2, 4, 6])
+def test_central_difference_weights_match_pysindy(order, accuracy):
+    np.testing.assert_allclose(
+        central_difference_weights(order, accuracy),
+        _pysindy_fd_weights(order, accuracy),
+        rtol=1e-12,
+        atol=1e-12,
+    )
+
+
+def test_central_difference_weights_by_hand():
+    np.testing.assert_allclose(central_difference_weights(1, 2), [-0.5, 0, 0.5], atol=1e-15)
+    np.testing.assert_allclose(central_difference_weights(2, 2), [1, -2, 1], atol=1e-14)
+    np.testing.assert_allclose(
+        central_difference_weights(1, 4), np.array([1, -8, 0, 8, -1]) / 12, atol=1e-15
+    )
+
+
+@pytest.mark.parametrize("accuracy", [2, 4, 6])
+def test_finite_difference_matches_pysindy_on_the_interior(accuracy):
+    from pysindy import FiniteDifference
+
+    x = np.random.default_rng(1).standard_normal((500, 2))
+    estimate = methods.get("finite_difference", accuracy_order=accuracy)(x, DT)
+    for order in (1, 2):
+        reference = FiniteDifference(order=accuracy, d=order, drop_endpoints=True)(x, t=DT)
+        np.testing.assert_array_equal(np.isfinite(reference[:, 0]), estimate.valid[order])
+        valid = estimate.valid[order]
+        np.testing.assert_allclose(estimate[order][valid], reference[valid], rtol=1e-10)
+
+
+@pytest.mark.parametrize(("window", "degree"), [(11, 2), (21, 3), (51, 5), (31, 4)])
+def test_savitzky_golay_matches_scipy_where_scipy_is_accurate(window, degree):
+    x = np.random.default_rng(2).standard_normal((400, 3))
+    method = methods.get("savitzky_golay", window_s=(window - 1) * DT, degree=degree)
+    estimate = method(x, DT)
+    for order in (0, 1, 2):
+        reference = sps.savgol_filter(
+            x, window, degree, deriv=order, delta=DT, axis=0, mode="interp"
+        )
+        scale = np.max(np.abs(reference))
+        np.testing.assert_allclose(estimate[order], reference, rtol=0, atol=1e-10 * scale)
+
+
+def test_savitzky_golay_weights_stay_exact_where_scipy_loses_accuracy():
+    """211 samples, degree 7 (the paper window at 1 kHz): the smoothing weights must sum to 1
+    and reproduce the moments of degree <= 7 exactly. (scipy 1.17's savgol_coeffs sums to
+    6.5e-7 here: scipy issue #20825.)"""
+    weights = local_polynomial_weights(105, 7, 0, np.array([0.0]))[0]
+    offsets = np.arange(-105, 106) / 105
+    moments = [np.sum(weights * offsets**k) for k in range(8)]
+    np.testing.assert_allclose(moments, [1, 0, 0, 0, 0, 0, 0, 0], atol=1e-12)
+    first = local_polynomial_weights(105, 7, 1, np.array([0.0]), dt=DT)[0]
+    np.testing.assert_allclose(np.sum(first * np.arange(-105, 106) * DT), 1.0, rtol=1e-11)
+
+
+@pytest.mark.parametrize(("window", "degree", "accuracy"), [(11, 3, 2), (21, 4, 4), (41, 5, 2)])
+def test_sindy_smoothing_matches_pysindy_called_directly(window, degree, accuracy):
+    from pysindy import SmoothedFiniteDifference
+
+    x = np.random.default_rng(4).standard_normal((300, 2))
+    method = methods.get(
+        "sindy_smoothing", window_s=(window - 1) * DT, degree=degree, accuracy_order=accuracy
+    )
+    estimate = method(x, DT)
+    for order in (1, 2):
+        sfd = SmoothedFiniteDifference(
+            smoother_kws={"window_length": window, "polyorder": degree},
+            order=accuracy,
+            d=order,
+        )
+        reference = sfd(x, t=DT)
+        scale = np.max(np.abs(reference))
+        np.testing.assert_allclose(estimate[order], reference, rtol=0, atol=1e-9 * scale)
+        np.testing.assert_allclose(estimate[0], sfd.smoothed_x_, rtol=0, atol=1e-12 * 5)
+
+
+def test_butterworth_matches_sosfiltfilt_and_central_differences():
+    x = np.random.default_rng(5).standard_normal((1000, 2))
+    estimate = methods.get("butterworth", order=6, cutoff_hz=25.0)(x, DT)
+    sos = sps.butter(6, 25.0, output="sos", fs=1 / DT)
+    smooth = sps.sosfiltfilt(sos, x, axis=0)
+    np.testing.assert_allclose(estimate[0], smooth, rtol=1e-12, atol=1e-15)
+    velocity = (smooth[2:] - smooth[:-2]) / (2 * DT)
+    acceleration = (smooth[2:] - 2 * smooth[1:-1] + smooth[:-2]) / DT**2
+    np.testing.assert_allclose(estimate[1][1:-1], velocity, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(estimate[2][1:-1], acceleration, rtol=1e-9, atol=1e-6)
+    assert not estimate.valid[1][0] and not estimate.valid[2][-1]
+
+
+def test_butterworth_is_exact_on_a_line_away_from_the_ends():
+    t = np.arange(4001) * DT
+    line = 0.3 + 2.5 * t
+    estimate = methods.get("butterworth", order=6, cutoff_hz=25.0)(line, DT)
+    interior = slice(1000, 3001)  # 1 s from the ends: the start-up transient has decayed
+    np.testing.assert_allclose(estimate[0][interior], line[interior], atol=1e-9)
+    np.testing.assert_allclose(estimate[1][interior], 2.5, atol=1e-6)
+    np.testing.assert_allclose(estimate[2][interior], 0.0, atol=1e-3)
+
+
+# --- the noiseless paper signal, against its analytic frequency response -------------------
+FREQUENCIES_HZ = (4.0, 9.0, 15.0)
+
+
+def _taps_response(taps, theta):
+    offsets = np.arange(taps.size) - taps.size // 2
+    return np.sum(taps[np.newaxis, :] * np.exp(1j * np.outer(theta, offsets)), axis=1)
+
+
+def _response(name, params, order, frequencies_hz):
+    """H(e^{i w dt}) of each linear method from a library or a formula, independently of the
+    time-domain code: taps from scipy (SG), pysindy (differences), sosfreqz (Butterworth)."""
+    theta = 2 * np.pi * np.asarray(frequencies_hz) * DT
+    if order == 0:
+        difference = np.ones_like(theta, dtype=complex)
+    else:
+        accuracy = params.get("accuracy_order", 2)
+        difference = _taps_response(_pysindy_fd_weights(order, accuracy), theta) / DT**order
+    if name == "finite_difference":
+        return difference
+    if name == "butterworth":
+        sos = sps.butter(params["order"], params["cutoff_hz"], output="sos", fs=1 / DT)
+        _, gain = sps.sosfreqz(sos, worN=np.asarray(frequencies_hz), fs=1 / DT)
+        return np.abs(gain) ** 2 * difference
+    window = round(params["window_s"] / DT) + 1
+    if name == "savitzky_golay":
+        taps = local_polynomial_weights(window // 2, params["degree"], order, [0.0], DT)[0]
+        return _taps_response(taps, theta)
+    if name == "sindy_smoothing":
+        taps = local_polynomial_weights(window // 2, params["degree"], 0, [0.0], DT)[0]
+        return _taps_response(taps, theta) * difference
+    raise AssertionError(f"no reference response for {name}")
+
+
+@pytest.mark.parametrize(
+    "name", ["finite_difference", "butterworth", "savitzky_golay", "sindy_smoothing"]
+)
+def test_noiseless_paper_signal_error_equals_the_predicted_response(name):
+    """On x = sum sin(2 pi f t), f = 4, 9, 15 Hz, an LTI estimator returns
+    sum Im(H(f) e^{i 2 pi f t}) away from the ends, so its error is
+    e(t) = sum Im((H(f) - (i 2 pi f)^n) e^{i 2 pi f t}) and is bounded by
+    sum |H(f) - (i 2 pi f)^n|: both are checked (Butterworth 1 s away from the ends, where
+    its start-up transient has decayed below 1e-9)."""
+    method, _ = methods.preset(name, "paper-signal")
+    params = method.params()
+    t = np.arange(3001) * DT
+    x = sum(np.sin(2 * np.pi * f * t) for f in FREQUENCIES_HZ)
+    estimate = method(x, DT)
+    interior = (t >= 1.0) & (t <= 2.0)
+    for order in (0, 1, 2):
+        omegas = 2 * np.pi * np.asarray(FREQUENCIES_HZ)
+        response = _response(name, params, order, FREQUENCIES_HZ)
+        predicted = sum(
+            np.imag(h * np.exp(1j * w * t)) for h, w in zip(response, omegas, strict=True)
+        )
+        truth = sum(np.imag((1j * w) ** order * np.exp(1j * w * t)) for w in omegas)
+        bound = np.sum(np.abs(response - (1j * omegas) ** order))
+        error = np.abs(estimate[order][interior] - truth[interior])
+        scale = np.max(np.abs(truth))
+        np.testing.assert_allclose(
+            estimate[order][interior], predicted[interior], rtol=0, atol=1e-8 * scale
+        )
+        assert np.max(error) <= bound * (1 + 1e-9) + 1e-8 * scale

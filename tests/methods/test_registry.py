@@ -1,0 +1,126 @@
+"""The registry: names, parameters, presets and the Estimate contract."""
+
+import math
+
+import numpy as np
+import pytest
+
+import methods
+from methods import Method, Preset, param, register
+
+EXPECTED = {"butterworth", "finite_difference", "savitzky_golay", "sindy_smoothing"}
+
+
+def test_available_lists_the_builtin_methods():
+    assert EXPECTED <= set(methods.available())
+    assert methods.available() == sorted(methods.available())
+
+
+def test_unknown_method_lists_the_valid_names():
+    with pytest.raises(ValueError, match=r"unknown method 'savgol'.*savitzky_golay"):
+        methods.get("savgol")
+
+
+def test_unknown_or_misspelt_parameter_is_an_error():
+    with pytest.raises(ValueError, match=r"window_sec.*valid: window_s, degree"):
+        methods.get("savitzky_golay", window_sec=0.1)
+
+
+def test_duplicate_registration_is_an_error():
+    with pytest.raises(ValueError, match="already registered"):
+
+        @register("finite_difference")
+        class Again(Method):
+            accuracy_order: int = param(2, choices=(2,), integer=True)
+
+
+def test_undeclared_parameter_is_an_error():
+    with pytest.raises(TypeError, match=r"must be declared with methods.param"):
+
+        @register("_test_undeclared")
+        class Undeclared(Method):
+            width: float = 1.0
+
+
+def test_preset_with_out_of_range_value_is_rejected_at_registration():
+    with pytest.raises(ValueError, match=r"`width` must be a finite number in \(0, inf\)"):
+
+        @register("_test_bad_preset")
+        class BadPreset(Method):
+            width: float = param(1.0, low=0.0, low_open=True)
+            presets = {"x": Preset({"width": -1.0}, "test")}
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_every_parameter_is_declared_with_range_and_presets_are_valid(name):
+    cls = methods.method_class(name)
+    specs = methods.params_of(cls)
+    assert specs, "a method without parameters cannot be tuned"
+    for spec in specs:
+        assert spec.doc
+        spec.check(spec.default)  # the default lies in its own range
+        if spec.tune_low is not None:
+            spec.check(spec.tune_low)
+            spec.check(spec.tune_high)
+            assert spec.tune_low < spec.tune_high
+        else:
+            assert spec.choices is not None, f"{spec.name}: no tuning range and no choices"
+    for key, chosen in cls.presets.items():
+        instance = cls(**chosen.values)
+        assert instance.params() == {**cls().params(), **chosen.values}, key
+
+
+@pytest.mark.parametrize(
+    ("name", "params", "message"),
+    [
+        ("savitzky_golay", {"degree": -1}, r"`degree` must be an integer in \[0, 20\], got -1"),
+        ("savitzky_golay", {"degree": 2.5}, r"`degree` must be an integer in \[0, 20\], got 2.5"),
+        ("savitzky_golay", {"window_s": -0.1}, r"`window_s` must be a finite number in \(0, inf\)"),
+        ("savitzky_golay", {"window_s": math.nan}, r"`window_s` must be a finite number.*nan"),
+        ("savitzky_golay", {"window_s": math.inf}, r"`window_s` must be a finite number.*inf"),
+        ("butterworth", {"order": -2}, r"`order` must be an integer in \[1, 20\], got -2"),
+        ("butterworth", {"order": 0}, r"`order` must be an integer in \[1, 20\], got 0"),
+        ("butterworth", {"cutoff_hz": 0.0}, r"`cutoff_hz` must be a finite number in \(0, inf\)"),
+        (
+            "finite_difference",
+            {"accuracy_order": 3},
+            r"`accuracy_order` must be one of \{2, 4, 6\}",
+        ),
+        ("sindy_smoothing", {"accuracy_order": 6}, r"`accuracy_order` must be one of \{2, 4\}"),
+        ("savitzky_golay", {"degree": True}, r"`degree` must be an integer in \[0, 20\], got True"),
+    ],
+)
+def test_out_of_range_parameters_name_the_argument_and_range(name, params, message):
+    with pytest.raises(ValueError, match=message):
+        methods.get(name, **params)
+
+
+def test_integer_parameters_accept_numpy_integers_and_store_plain_ints():
+    method = methods.get("savitzky_golay", degree=np.int64(4), window_s=np.float32(0.5))
+    assert type(method.degree) is int and method.degree == 4
+    assert type(method.window_s) is float
+
+
+def test_methods_are_frozen():
+    method = methods.get("finite_difference")
+    with pytest.raises(AttributeError):
+        method.accuracy_order = 4
+
+
+def test_preset_falls_back_to_class_defaults():
+    method, source = methods.preset("savitzky_golay", "no-such-preset")
+    assert source == "class defaults"
+    assert method == methods.get("savitzky_golay")
+    method, source = methods.preset("butterworth", "robot")
+    assert (method.order, method.cutoff_hz) == (4, 5.0)
+    assert "sec. IV" in source
+
+
+def test_estimate_rejects_nan_on_valid_samples():
+    values = {1: np.array([np.nan, 1.0, np.nan])}
+    with pytest.raises(ValueError, match="not finite exactly on its valid samples"):
+        methods.Estimate(values=values, valid={1: np.array([True, True, False])})
+    estimate = methods.Estimate(values=values, valid={1: np.array([False, True, False])})
+    assert estimate.coverage(1) == pytest.approx(1 / 3)
+    with pytest.raises(ValueError, match="`order` 2 was not estimated"):
+        estimate[2]
