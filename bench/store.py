@@ -81,7 +81,6 @@ class ResultStore:
             dtype={"cell_key": str, "params": str, "versions": str, "git_rev": str},
             keep_default_na=False,
             na_values={"value": ["nan", "NaN"]},
-            float_precision="round_trip",
         )
         return frame
 

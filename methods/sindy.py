@@ -59,8 +59,9 @@ class SindySmoothing(Method):
 
     presets = {
         "paper-signal": Preset(
-            {"window_s": 0.21, "degree": 7, "accuracy_order": 2},
-            "diffbench (not in the paper): the savitzky_golay preset as smoother",
+            {"window_s": 0.188, "degree": 9, "accuracy_order": 2},
+            "diffbench, not in the paper: grid over window 20-400 ms x degree 1-9 on the held-out "
+            "noise seed 10000, least interior ẍ RMSE (near-ties broken by ẋ RMSE)",
         ),
     }
     reference = "de Silva et al. (2020), pysindy"

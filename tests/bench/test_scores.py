@@ -1,0 +1,50 @@
+"""Scores against numbers computed by hand."""
+
+import numpy as np
+import pytest
+
+from bench.scores import error_metrics, score_estimate
+from methods import Estimate
+
+
+def test_error_metrics_by_hand():
+    truth = np.array([1.0, -1.0, 1.0, -1.0])
+    estimate = np.array([1.5, -1.0, 1.0, -2.0])  # errors 0.5, 0, 0, -1
+    metrics = error_metrics(estimate, truth, np.ones(4, dtype=bool))
+    assert metrics["rmse"] == pytest.approx(np.sqrt(1.25 / 4))
+    assert metrics["max_abs"] == 1.0
+    assert metrics["rel_rmse"] == pytest.approx(np.sqrt(1.25 / 4) / 1.0)
+    masked = error_metrics(estimate, truth, np.array([False, True, True, True]))
+    assert masked["rmse"] == pytest.approx(np.sqrt(1 / 3))
+
+
+def test_error_metrics_broadcast_truth_over_channels():
+    truth = np.array([0.0, 1.0, 2.0])
+    estimate = np.stack([truth + 1.0, truth - 1.0], axis=1)
+    assert error_metrics(estimate, truth, np.ones(3, dtype=bool))["rmse"] == pytest.approx(1.0)
+
+
+def test_empty_mask_is_an_error():
+    with pytest.raises(ValueError, match="`mask` selects no samples"):
+        error_metrics(np.zeros(3), np.zeros(3), np.zeros(3, dtype=bool))
+
+
+def test_score_rows_cover_both_regions_and_report_coverage():
+    n = 10
+    values = np.arange(n, dtype=float)
+    first = values + 0.5
+    first[:2] = np.nan
+    valid = np.isfinite(first)
+    estimate = Estimate(values={0: values, 1: first}, valid={0: np.ones(n, bool), 1: valid})
+    truth = {0: values, 1: np.arange(n, dtype=float)}
+    interior = np.zeros(n, dtype=bool)
+    interior[1:9] = True  # the method misses sample 1 of the interior
+    rows = {
+        (r["order"], r["region"], r["metric"]): r["value"]
+        for r in score_estimate(estimate, truth, interior)
+    }
+    assert rows[(0, "valid", "rmse")] == 0.0
+    assert rows[(1, "valid", "rmse")] == pytest.approx(0.5)
+    assert rows[(1, "valid", "coverage")] == pytest.approx(0.8)
+    assert rows[(1, "interior", "coverage")] == pytest.approx(7 / 8)
+    assert rows[(1, "interior", "max_abs")] == pytest.approx(0.5)

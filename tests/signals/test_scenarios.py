@@ -1,0 +1,248 @@
+"""Scenarios: the paper's test case, reproducible realisations, the common interior, checks."""
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from signals import (
+    Chirp,
+    DampedOscillation,
+    Gaussian,
+    NoiseStack,
+    PaperSines,
+    Poisson,
+    Polynomial,
+    Quantisation,
+    Realisation,
+    Scenario,
+    Sinusoid,
+    available_scenarios,
+    get_scenario,
+    register_scenario,
+)
+from signals import scenarios as scenarios_module
+
+BUILTIN = [
+    "chirp-gaussian",
+    "damped-gaussian",
+    "paper-signal",
+    "paper-signal-clean",
+    "paper-signal-quantised",
+    "polynomial-clean",
+]
+
+
+def make(**overrides):
+    params = {
+        "name": "test",
+        "signal": PaperSines(),
+        "noise": NoiseStack((Gaussian(std=0.1),)),
+        "dt_s": 1e-3,
+        "duration_s": 1.0,
+        "interior_margin_s": 0.1,
+        "description": "a test scenario",
+        "preset": "default",
+    }
+    params.update(overrides)
+    return Scenario(**params)
+
+
+def test_available_scenarios_lists_the_builtins_sorted():
+    assert available_scenarios() == BUILTIN
+
+
+def test_unknown_scenario_lists_the_valid_names():
+    with pytest.raises(ValueError, match=r"unknown scenario 'paper'.*paper-signal, paper-signal-"):
+        get_scenario("paper")
+
+
+def test_paper_signal_is_the_papers_test_case():
+    scenario = get_scenario("paper-signal")
+    assert scenario.signal == PaperSines(frequencies_hz=(4.0, 9.0, 15.0), amplitude=1.0)
+    assert scenario.noise.models == (
+        Gaussian(std=0.2),
+        Sinusoid(amplitude=0.2, frequency_hz=200.0, phase_rad=0.0),
+        Poisson(rate=0.1, amplitude=0.2, centered=False),
+    )
+    assert scenario.dt_s == 1e-3
+    assert scenario.duration_s == 1.0
+    assert scenario.preset == "paper-signal"
+    assert "III.C" in scenario.description
+    t = scenario.t
+    assert t.shape == (1001,)
+    assert t[0] == 0.0
+    assert t[-1] == pytest.approx(1.0, abs=1e-12)
+    np.testing.assert_allclose(np.diff(t), 1e-3, rtol=1e-9)
+
+
+def test_paper_signal_interior_drops_150_samples_at_each_end():
+    realisation = get_scenario("paper-signal").realise(0)
+    interior = realisation.interior
+    assert interior.dtype == np.bool_
+    assert int(interior.sum()) == 701  # t from 0.150 s to 0.850 s inclusive
+    assert np.flatnonzero(interior)[[0, -1]].tolist() == [150, 850]
+    assert np.all(interior[150:851])
+
+
+def test_realise_is_bit_reproducible_and_seed_dependent():
+    scenario = get_scenario("paper-signal")
+    a, b = scenario.realise(seed=7), scenario.realise(seed=7)
+    assert np.array_equal(a.x, b.x)
+    assert np.array_equal(a.noise, b.noise)
+    c = scenario.realise(seed=8)
+    assert not np.allclose(a.x, c.x)
+    assert (a.seed, c.seed) == (7, 8)
+
+
+def test_realise_uses_default_rng_of_the_seed():
+    scenario = get_scenario("paper-signal")
+    expected_noisy, expected_noise = scenario.noise.apply(
+        scenario.t, scenario.signal.evaluate(scenario.t)[0], np.random.default_rng(11)
+    )
+    realisation = scenario.realise(np.int64(11))
+    assert np.array_equal(realisation.x, expected_noisy)
+    assert np.array_equal(realisation.noise, expected_noise)
+    assert realisation.seed == 11 and type(realisation.seed) is int
+
+
+@pytest.mark.parametrize("name", BUILTIN)
+def test_every_scenario_realises_with_its_exact_truth(name):
+    scenario = get_scenario(name)
+    realisation = scenario.realise(3)
+    n = scenario.t.shape[0]
+    assert realisation.x.shape == realisation.noise.shape == realisation.interior.shape == (n,)
+    assert np.array_equal(realisation.t, scenario.t)
+    assert realisation.dt_s == scenario.dt_s
+    assert np.array_equal(realisation.noise, realisation.x - realisation.truth[0])
+    truth = scenario.signal.evaluate(scenario.t)
+    for order in range(3):
+        assert np.array_equal(realisation.truth[order], truth[order])
+    assert np.all(np.isfinite(realisation.x))
+    assert 0 < realisation.interior.sum() < n
+    assert scenario.preset in {"paper-signal", "default"}
+    assert scenario.description
+
+
+def test_paper_signal_noise_statistics_over_seeds():
+    # noise - sinusoid = 0.2·N(0,1) + 0.2·Poisson(0.1): mean 0.02, variance 0.04 + 0.004.
+    scenario = get_scenario("paper-signal")
+    hum = 0.2 * np.sin(2 * np.pi * 200 * scenario.t)
+    random_part = np.concatenate([scenario.realise(s).noise - hum for s in range(20)])
+    standard_error = math.sqrt(0.044 / random_part.size)
+    assert abs(random_part.mean() - 0.02) < 4 * standard_error
+    assert random_part.std() == pytest.approx(math.sqrt(0.044), rel=0.03)
+
+
+def test_paper_signal_clean_has_no_noise():
+    realisation = get_scenario("paper-signal-clean").realise(0)
+    assert np.array_equal(realisation.x, realisation.truth[0])
+    assert not realisation.noise.any()
+    assert get_scenario("paper-signal-clean").noise.describe() == "none"
+
+
+def test_paper_signal_quantised_lands_on_the_grid():
+    scenario = get_scenario("paper-signal-quantised")
+    assert scenario.noise.models[-1] == Quantisation(step=1e-3)
+    assert scenario.noise.models[:-1] == get_scenario("paper-signal").noise.models
+    assert scenario.preset == "paper-signal"
+    x = scenario.realise(5).x
+    np.testing.assert_allclose(x / 1e-3, np.round(x / 1e-3), rtol=0, atol=1e-9)
+    # Same seed, same children for the first three models: differs from paper-signal by at
+    # most half a step.
+    paper = get_scenario("paper-signal").realise(5).x
+    assert np.max(np.abs(x - paper)) <= 0.5e-3 * (1 + 1e-9)
+
+
+def test_other_builtin_scenarios():
+    chirp = get_scenario("chirp-gaussian")
+    assert chirp.signal == Chirp(start_hz=1.0, rate_hz_per_s=9.5)
+    assert chirp.signal.start_hz + chirp.signal.rate_hz_per_s * chirp.duration_s == 20.0
+    assert chirp.noise.models == (Gaussian(std=0.05),)
+    assert (chirp.dt_s, chirp.duration_s, chirp.interior_margin_s) == (1e-3, 2.0, 0.2)
+    assert chirp.preset == "default"
+    damped = get_scenario("damped-gaussian")
+    assert damped.signal == DampedOscillation(natural_hz=5.0, damping_ratio=0.1)
+    assert damped.noise.models == (Gaussian(std=0.02),)
+    assert damped.t.shape == (2001,)
+    polynomial = get_scenario("polynomial-clean")
+    assert isinstance(polynomial.signal, Polynomial)
+    assert len(polynomial.signal.coefficients) == 4
+    assert polynomial.t.shape == (201,)
+    assert polynomial.noise.models == ()
+
+
+def test_t_is_dt_times_arange():
+    scenario = make(dt_s=0.1, duration_s=0.3, interior_margin_s=0.1)  # 0.3 / 0.1 = 2.9999...
+    np.testing.assert_array_equal(scenario.t, 0.1 * np.arange(4))
+    # The margin equals one step: the first and last samples are out, t = 0.1 and 0.2 in.
+    assert scenario.realise(0).interior.tolist() == [False, True, True, False]
+
+
+def test_zero_margin_keeps_every_sample():
+    assert make(interior_margin_s=0.0).realise(0).interior.all()
+
+
+def test_realisation_is_frozen_and_read_only():
+    realisation = get_scenario("paper-signal").realise(0)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        realisation.x = np.zeros(1001)
+    for array in (realisation.x, realisation.noise, realisation.t, realisation.interior):
+        with pytest.raises(ValueError, match="read-only"):
+            array[0] = 0
+
+
+def test_register_scenario_rejects_duplicates(monkeypatch):
+    monkeypatch.setattr(scenarios_module, "_REGISTRY", dict(scenarios_module._REGISTRY))
+    scenario = make(name="_test-scenario")
+    register_scenario(scenario)
+    assert get_scenario("_test-scenario") is scenario
+    with pytest.raises(ValueError, match="already registered"):
+        register_scenario(make(name="paper-signal"))
+    with pytest.raises(ValueError, match="`scenario`"):
+        register_scenario("paper-signal")
+
+
+# --- validation -----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("overrides", "message"),
+    [
+        ({"dt_s": 0.0}, "`dt_s` must be > 0, got 0.0"),
+        ({"dt_s": math.nan}, "`dt_s` must be a finite number"),
+        ({"dt_s": math.inf}, "`dt_s` must be a finite number"),
+        ({"duration_s": -1.0}, "`duration_s` must be > 0, got -1.0"),
+        ({"duration_s": 1.0005}, "`duration_s` must be a whole number of steps"),
+        ({"duration_s": 1e-4}, "`duration_s` must be a whole number of steps"),
+        ({"interior_margin_s": -0.1}, "`interior_margin_s` must be >= 0, got -0.1"),
+        ({"interior_margin_s": 0.5}, "`interior_margin_s` must be < half of `duration_s`"),
+        ({"interior_margin_s": math.nan}, "`interior_margin_s` must be a finite number"),
+        ({"signal": "paper_sines"}, "`signal` must be a signals.Signal"),
+        ({"noise": (Gaussian(),)}, "`noise` must be a NoiseStack"),
+        ({"name": ""}, "`name` must be a non-empty string"),
+        ({"preset": None}, "`preset` must be a non-empty string"),
+        ({"description": 3}, "`description` must be a non-empty string"),
+    ],
+)
+def test_bad_scenarios_are_rejected_by_name(overrides, message):
+    with pytest.raises(ValueError, match=message):
+        make(**overrides)
+
+
+@pytest.mark.parametrize("seed", [-1, 1.5, True, "3", None])
+def test_bad_seeds_are_rejected(seed):
+    with pytest.raises(ValueError, match="`seed` must be a non-negative integer"):
+        get_scenario("paper-signal").realise(seed)
+
+
+def test_realisation_checks_its_shapes():
+    realisation = get_scenario("paper-signal-clean").realise(0)
+    fields = {f.name: getattr(realisation, f.name) for f in dataclasses.fields(Realisation)}
+    with pytest.raises(ValueError, match="`x` must have shape"):
+        Realisation(**{**fields, "x": np.zeros(3)})
+    with pytest.raises(ValueError, match="`interior` must be a boolean mask"):
+        Realisation(**{**fields, "interior": np.ones(1001)})
+    with pytest.raises(ValueError, match="`seed`"):
+        Realisation(**{**fields, "seed": -2})
