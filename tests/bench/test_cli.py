@@ -60,3 +60,35 @@ def test_bad_input_is_one_line_and_exit_code_2(argv, message, capsys, tmp_path):
     assert len(lines) == 1 and lines[0].startswith("diffbench: error:")
     assert message in lines[0]
     assert "Traceback" not in captured.err
+
+
+def test_ctrl_c_keeps_finished_cells_and_exits_130(tmp_path, capsys, monkeypatch):
+    from bench import runner
+
+    real = runner.compute_cell
+    calls = []
+
+    def interrupted_on_third(cell):
+        calls.append(cell)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(cell)
+
+    monkeypatch.setattr(runner, "compute_cell", interrupted_on_third)
+    args = [
+        "run",
+        "paper-signal",
+        "--seeds",
+        "2",
+        "--out",
+        str(tmp_path),
+        "--no-progress",
+        "--methods",
+        "finite_difference,butterworth",
+    ]
+    assert main(args) == 130
+    err = capsys.readouterr().err
+    assert "interrupted; 2 cells are stored" in err and "Traceback" not in err
+    monkeypatch.setattr(runner, "compute_cell", real)
+    assert main(args) == 0
+    assert "2 cells computed, 2 already stored" in capsys.readouterr().out
