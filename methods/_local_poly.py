@@ -17,6 +17,7 @@ import numpy as np
 from numpy.polynomial import legendre
 
 from methods._fir import apply_central_fir
+from methods._validation import samples_in_span
 
 
 def local_polynomial_weights(
@@ -81,3 +82,15 @@ def savitzky_golay_filter(
     # The right end mirrors the left: offsets 1..m, weights reversed and signed by (-1)^n.
     out[n - m :] = (math.pow(-1, order) * edge[::-1, ::-1]) @ flat[n - window :]
     return y
+
+
+def window_samples(window_s: float, degree: int, dt: float) -> int:
+    """Sample count ``2m + 1`` of a window spanning ``window_s = 2m * dt`` seconds that can hold
+    a polynomial of ``degree``; ``ValueError`` naming ``window_s`` or ``degree`` otherwise."""
+    samples = samples_in_span("window_s", window_s, dt, odd=True) + 1
+    if degree >= samples:
+        raise ValueError(
+            f"`degree`={degree} must be below the window's {samples} samples "
+            f"(window_s={window_s!r} s at dt={dt!r} s)"
+        )
+    return samples

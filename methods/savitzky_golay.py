@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from methods._local_poly import savitzky_golay_filter
+from methods._local_poly import savitzky_golay_filter, window_samples
 from methods._registry import Method, Preset, param, register
-from methods._validation import samples_in_span
 
 
 @register("savitzky_golay")
@@ -62,15 +61,10 @@ class SavitzkyGolay(Method):
     reference = "Savitzky & Golay (1964)"
 
     def _samples(self, dt: float) -> int:
-        return samples_in_span("window_s", self.window_s, dt, odd=True) + 1
+        return window_samples(self.window_s, self.degree, dt)
 
     def check_step(self, dt: float) -> None:
-        samples = self._samples(dt)
-        if self.degree >= samples:
-            raise ValueError(
-                f"`degree`={self.degree} must be below the window's {samples} samples "
-                f"(window_s={self.window_s!r} s at dt={dt!r} s)"
-            )
+        self._samples(dt)
 
     def min_samples(self, dt: float) -> int:
         return self._samples(dt)
