@@ -13,6 +13,7 @@ from pathlib import Path
 import methods
 import signals
 from bench import runner, tables
+from bench.provenance import provenance
 from bench.store import ResultStore
 
 EXIT_USAGE = 2
@@ -133,6 +134,14 @@ def _cmd_run(args: argparse.Namespace) -> None:
         f"{summary.computed} cells computed, {summary.skipped} already stored; "
         f"wrote {', '.join(str(p) for p in written)}"
     )
+    revisions = set(store.load()["git_rev"]) - {provenance()["git_rev"]}
+    if revisions:
+        print(
+            "note: some stored cells were computed by other code revisions "
+            f"({', '.join(sorted(r[:12] for r in revisions))}); delete {directory} to "
+            "recompute them all",
+            file=sys.stderr,
+        )
 
 
 def _cmd_table(args: argparse.Namespace) -> None:
