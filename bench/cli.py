@@ -168,6 +168,9 @@ def main(argv: list[str] | None = None) -> int:
         message = str(error).splitlines()[0] if str(error) else type(error).__name__
         print(f"diffbench: error: {message}", file=sys.stderr)
         return EXIT_USAGE
+    except OSError as error:  # e.g. an --out directory that cannot be written
+        print(f"diffbench: error: {error.strerror or error}: {error.filename}", file=sys.stderr)
+        return EXIT_USAGE
     except SystemExit as stop:
         return int(stop.code or 0)
     return 0

@@ -51,6 +51,7 @@ def test_run_writes_store_and_tables_then_resumes(tmp_path, capsys):
         (["frobnicate"], "invalid choice"),
         ([], "required"),
         (["table", "paper-signal", "--out", "/nonexistent-dir"], "no results at"),
+        (["run", "paper-signal", "--out", "/proc/diffbench"], "/proc/diffbench"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_code_2(argv, message, capsys, tmp_path):
