@@ -12,7 +12,7 @@ specifications (``params_of``) and presets, ``preset(name, key)`` an instance at
 """
 
 # Importing the family modules registers their methods (heavy libraries load lazily).
-from methods import butterworth, finite_difference, savitzky_golay, sindy
+from methods import butterworth, finite_difference, jacobi, savitzky_golay, sindy
 from methods._registry import (
     Estimate,
     Method,
@@ -41,6 +41,7 @@ __all__ = [
     "check_signal",
     "finite_difference",
     "get",
+    "jacobi",
     "method_class",
     "param",
     "params_of",

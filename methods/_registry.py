@@ -49,12 +49,17 @@ class Param:
         right = ")" if self.high_open or math.isinf(self.high) else "]"
         return f"{left}{_fmt(self.low)}, {_fmt(self.high)}{right}"
 
-    def check(self, value: Any) -> int | float:
-        """Return ``value`` as a plain int/float, or raise ``ValueError`` naming this parameter."""
+    def check(self, value: Any) -> int | float | str:
+        """Return ``value`` as a plain int/float (or one of string ``choices``), or raise
+        ``ValueError`` naming this parameter."""
         kind = "an integer" if self.integer else "a finite number"
         allowed = f"{kind} in {self.describe_range()}"
         if self.choices is not None:
             allowed = f"one of {self.describe_range()}"
+            if all(isinstance(choice, str) for choice in self.choices):
+                if value not in self.choices:
+                    raise ValueError(f"`{self.name}` must be {allowed}, got {value!r}")
+                return value
         if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
             raise ValueError(f"`{self.name}` must be {allowed}, got {value!r}")
         if not math.isfinite(value):

@@ -9,6 +9,33 @@ EXTRA = {
     "savitzky_golay": [{"window_s": 0.05, "degree": 2}, {"window_s": 0.03, "degree": 5}],
     "sindy_smoothing": [{"window_s": 0.05, "degree": 5, "accuracy_order": 4}],
     "butterworth": [{"order": 2, "cutoff_hz": 40.0}],
+    "jacobi": [
+        {"rule": "least_squares", "window_s": 0.05, "accel_window_s": 0.08},
+        {
+            "rule": "least_squares",
+            "kappa": 2.0,
+            "mu": 5.0,
+            "q": 3,
+            "window_s": 0.04,
+            "accel_window_s": 0.04,
+        },
+        {
+            "rule": "linear",
+            "kappa": -0.5,
+            "mu": 0.5,
+            "q": 2,
+            "window_s": 0.06,
+            "accel_window_s": 0.1,
+        },
+        {
+            "rule": "least_squares",
+            "kappa": 0.0,
+            "mu": 0.0,
+            "q": 1,
+            "window_s": 0.03,
+            "accel_window_s": 0.03,
+        },
+    ],
 }
 
 
