@@ -13,13 +13,14 @@ specifications (``params_of``) and presets, ``preset(name, key)`` an instance at
 
 # Importing the family modules registers their methods (heavy libraries load lazily).
 from methods import butterworth, finite_difference, jacobi, savitzky_golay, sindy
+from methods._fir import central_mask
 from methods._registry import (
     Estimate,
+    FirMethod,
     Method,
     Param,
     Preset,
     available,
-    central_mask,
     get,
     method_class,
     param,
@@ -32,6 +33,7 @@ from methods._validation import MAX_ORDER, check_signal, uniform_step
 __all__ = [
     "MAX_ORDER",
     "Estimate",
+    "FirMethod",
     "Method",
     "Param",
     "Preset",

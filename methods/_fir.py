@@ -5,9 +5,14 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal as sps
 
-from methods._registry import central_mask
-
 _OVERLAP_ADD_FROM = 32  # taps; shorter kernels are convolved directly
+
+
+def central_mask(n_samples: int, half_width: int) -> np.ndarray:
+    """Mask of the samples a central window of ``2*half_width + 1`` samples can reach."""
+    mask = np.zeros(n_samples, dtype=bool)
+    mask[half_width : n_samples - half_width] = True
+    return mask
 
 
 def apply_central_fir(x: np.ndarray, taps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -39,3 +44,16 @@ def apply_central_fir(x: np.ndarray, taps: np.ndarray) -> tuple[np.ndarray, np.n
 
 def _kernel(taps: np.ndarray, ndim: int) -> np.ndarray:
     return taps[::-1].reshape((-1,) + (1,) * (ndim - 1))
+
+
+def fir_response(taps: np.ndarray, frequency_hz, dt: float) -> np.ndarray:
+    r"""Frequency response of the centred FIR filter of :func:`apply_central_fir`.
+
+    .. math:: H(f) = \sum_{j=-m}^{m} a_j \, e^{i 2\pi f j \Delta t}
+
+    (the output for the input :math:`e^{i 2\pi f t}` is :math:`H(f) e^{i 2\pi f t}`).
+    """
+    taps = np.asarray(taps, dtype=np.float64)
+    offsets = np.arange(taps.size) - taps.size // 2
+    theta = 2 * np.pi * np.atleast_1d(np.asarray(frequency_hz, dtype=np.float64)) * dt
+    return np.exp(1j * np.outer(theta, offsets)) @ taps

@@ -15,6 +15,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from methods._fir import apply_central_fir, fir_response
 from methods._validation import check_dt, check_orders, check_signal
 
 _REGISTRY: dict[str, type[Method]] = {}
@@ -138,13 +139,6 @@ class Estimate:
         return float(np.mean(self.valid[order]))
 
 
-def central_mask(n_samples: int, half_width: int) -> np.ndarray:
-    """Mask of the samples a central window of ``2*half_width + 1`` samples can reach."""
-    mask = np.zeros(n_samples, dtype=bool)
-    mask[half_width : n_samples - half_width] = True
-    return mask
-
-
 class Method:
     """Base of every registered method: validation and the call contract.
 
@@ -188,8 +182,33 @@ class Method:
         valid samples (``math.inf``: any degree; ``None``: not exact for any degree)."""
         return None
 
+    def frequency_response(self, frequency_hz, dt: float, order: int) -> np.ndarray:
+        """Complex response :math:`H(f)` of the estimate of ``order`` at ``frequency_hz``
+        (the output for :math:`e^{i2\\pi ft}` away from the ends is :math:`H(f)e^{i2\\pi ft}`);
+        the ideal is :math:`(i 2\\pi f)^n`. Linear methods only."""
+        raise NotImplementedError(f"{self.name} is not linear: it has no frequency response")
+
     def _estimate(self, x: np.ndarray, dt: float, orders: tuple[int, ...]):
         raise NotImplementedError
+
+
+class FirMethod(Method):
+    """A method that is one centred FIR filter per derivative order (``taps(order, dt)``)."""
+
+    def taps(self, order: int, dt: float) -> np.ndarray:
+        raise NotImplementedError
+
+    def frequency_response(self, frequency_hz, dt: float, order: int) -> np.ndarray:
+        dt = check_dt(dt)
+        self.check_step(dt)
+        check_orders((order,))
+        return fir_response(self.taps(order, dt), frequency_hz, dt)
+
+    def _estimate(self, x, dt, orders):
+        values, valid = {}, {}
+        for order in orders:
+            values[order], valid[order] = apply_central_fir(x, self.taps(order, dt))
+        return values, valid
 
 
 def params_of(cls: type[Method]) -> tuple[Param, ...]:

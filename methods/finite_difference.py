@@ -6,8 +6,7 @@ from math import factorial, inf
 
 import numpy as np
 
-from methods._fir import apply_central_fir
-from methods._registry import Method, Preset, param, register
+from methods._registry import FirMethod, Preset, param, register
 
 
 def central_difference_weights(order: int, accuracy: int) -> np.ndarray:
@@ -38,7 +37,7 @@ def central_difference_weights(order: int, accuracy: int) -> np.ndarray:
 
 
 @register("finite_difference")
-class FiniteDifference(Method):
+class FiniteDifference(FirMethod):
     """Central finite differences of accuracy order 2, 4 or 6, for derivative orders 1 and 2.
 
     .. math:: \\hat x^{(n)}_k = \\Delta t^{-n} \\sum_{j=-m}^{m} a^{(n,p)}_j x_{k+j}
@@ -85,12 +84,8 @@ class FiniteDifference(Method):
     def exact_degree(self, order: int) -> float | None:
         return inf if order == 0 else self.accuracy_order + order - 1
 
-    def _estimate(self, x, dt, orders):
-        values, valid = {}, {}
-        for order in orders:
-            if order == 0:
-                values[0], valid[0] = x.copy(), np.ones(x.shape[0], dtype=bool)
-                continue
-            taps = central_difference_weights(order, self.accuracy_order) / dt**order
-            values[order], valid[order] = apply_central_fir(x, taps)
-        return values, valid
+    def taps(self, order: int, dt: float) -> np.ndarray:
+        """Taps a_{-m..m} / dt^n of the derivative of ``order`` (order 0: the identity)."""
+        if order == 0:
+            return np.ones(1)
+        return central_difference_weights(order, self.accuracy_order) / dt**order

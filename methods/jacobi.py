@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from methods._fir import apply_central_fir
-from methods._registry import Method, Preset, param, register
+from methods._registry import FirMethod, Preset, param, register
 from methods.jacobi_kernel import RULES, fir_weights, half_width
 
 
 @register("jacobi")
-class Jacobi(Method):
+class Jacobi(FirMethod):
     """Central Jacobi differentiator: a FIR filter from truncated Jacobi series.
 
     .. math::
@@ -161,9 +160,3 @@ class Jacobi(Method):
             return None
         bonus = 1 if self.kappa == self.mu and self.q % 2 == 0 else 0
         return order + self.q + bonus
-
-    def _estimate(self, x, dt, orders):
-        values, valid = {}, {}
-        for order in orders:
-            values[order], valid[order] = apply_central_fir(x, self.taps(order, dt))
-        return values, valid

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from methods._local_poly import savitzky_golay_filter, window_samples
-from methods._registry import Method, Preset, param, register
+from methods._local_poly import local_polynomial_weights, savitzky_golay_filter, window_samples
+from methods._registry import FirMethod, Preset, param, register
 
 
 @register("savitzky_golay")
-class SavitzkyGolay(Method):
+class SavitzkyGolay(FirMethod):
     """Least-squares polynomial of ``degree`` on a centred window, differentiated at its centre.
 
     .. math::
@@ -71,6 +71,13 @@ class SavitzkyGolay(Method):
 
     def exact_degree(self, order: int) -> float | None:
         return self.degree
+
+    def taps(self, order: int, dt: float) -> np.ndarray:
+        """Central taps (away from the ends) of the derivative of ``order``."""
+        half_width = self._samples(dt) // 2
+        if order > self.degree:
+            return np.zeros(2 * half_width + 1)
+        return local_polynomial_weights(half_width, self.degree, order, np.array([0.0]), dt)[0]
 
     def _estimate(self, x, dt, orders):
         half_width = self._samples(dt) // 2

@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from methods._local_poly import savitzky_golay_filter, window_samples
+from methods._fir import fir_response
+from methods._local_poly import local_polynomial_weights, savitzky_golay_filter, window_samples
 from methods._registry import Method, Preset, param, register
+from methods._validation import check_dt, check_orders
+from methods.finite_difference import central_difference_weights
 
 
 @register("sindy_smoothing")
@@ -76,6 +79,20 @@ class SindySmoothing(Method):
 
     def exact_degree(self, order: int) -> float | None:
         return self.degree if order == 0 else min(self.degree, self.accuracy_order + order - 1)
+
+    def frequency_response(self, frequency_hz, dt: float, order: int) -> np.ndarray:
+        """Savitzky-Golay smoother times pysindy's central difference (interior samples)."""
+        dt = check_dt(dt)
+        self.check_step(dt)
+        check_orders((order,))
+        half_width = self._samples(dt) // 2
+        smoother = local_polynomial_weights(half_width, self.degree, 0, np.array([0.0]), dt)[0]
+        difference = (
+            np.ones(1)
+            if order == 0
+            else central_difference_weights(order, self.accuracy_order) / dt**order
+        )
+        return fir_response(smoother, frequency_hz, dt) * fir_response(difference, frequency_hz, dt)
 
     def _estimate(self, x, dt, orders):
         from pysindy import SmoothedFiniteDifference  # heavy (about 1-2 s): import lazily
