@@ -17,6 +17,7 @@ $(STAMP): pyproject.toml
 
 bench: $(STAMP)
 	$(BIN)/diffbench run paper-signal --seeds $(SEEDS) --out results
+	$(BIN)/diffbench paper-figures --seeds $(SEEDS) --out results
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

@@ -16,6 +16,7 @@ from typing import Any
 
 import methods
 import signals
+from bench.frequency import decompose_error
 from bench.provenance import provenance
 from bench.scores import score_estimate
 from bench.store import ResultStore, canonical_params, cell_key
@@ -57,12 +58,29 @@ def preset_cells(
 
 
 def compute_cell(cell: Cell) -> list[dict[str, Any]]:
-    """Score rows of one cell (pure computation: no I/O)."""
+    """Score rows of one cell (pure computation: no I/O).
+
+    Linear methods also get the interior RMS of the bias part (the method on the clean
+    signal, minus the truth) and of the noise part (the method on the noise alone) of ẋ, ẍ.
+    """
     scenario = signals.get_scenario(cell.scenario)
     realisation = scenario.realise(cell.seed)
     method = methods.get(cell.method, **cell.params)
     estimate = method(realisation.x, realisation.dt_s)
-    return score_estimate(estimate, realisation.truth, realisation.interior)
+    rows = score_estimate(estimate, realisation.truth, realisation.interior)
+    if method.linear:
+        for order in (1, 2):
+            parts = decompose_error(method, realisation, order)
+            rows += [
+                {"order": order, "region": "interior", "metric": "bias_rmse", "value": parts.bias},
+                {
+                    "order": order,
+                    "region": "interior",
+                    "metric": "noise_rmse",
+                    "value": parts.noise,
+                },
+            ]
+    return rows
 
 
 @dataclass

@@ -9,21 +9,28 @@ import pandas as pd
 
 ORDER_LABELS = {0: "x", 1: "ẋ", 2: "ẍ"}
 REGION_LABELS = {"interior": "interior", "valid": "full"}
+KEYS = ["method", "params", "preset"]
+
+# (column label, metric, derivative order, region)
+RMSE_COLUMNS = [
+    (f"RMSE {ORDER_LABELS[order]} {REGION_LABELS[region]}", "rmse", order, region)
+    for region in ("interior", "valid")
+    for order in (0, 1, 2)
+] + [("coverage ẋ", "coverage", 1, "valid")]
+DECOMPOSITION_COLUMNS = [
+    (f"{ORDER_LABELS[order]} {part}", metric, order, "interior")
+    for order in (1, 2)
+    for part, metric in (("total", "rmse"), ("bias", "bias_rmse"), ("noise", "noise_rmse"))
+]
 
 
-def rmse_summary(rows: pd.DataFrame, metric: str = "rmse") -> pd.DataFrame:
-    """Mean, std and seed count of ``metric`` per method/parameters, region and order.
-
-    ``rows`` are stored rows (see :mod:`bench.store`). Returns a long table with columns
-    method, params, preset, region, order, mean, std, seeds (std is the sample std, ddof=1).
+def summarise(rows: pd.DataFrame) -> pd.DataFrame:
+    """Mean, sample std (ddof=1) and seed count of every metric per method/parameters, region
+    and order. Rows are sorted first, so the same rows give the same sums in any stored order.
     """
-    chosen = rows[rows["metric"] == metric].sort_values(
-        ["method", "params", "region", "order", "seed"], kind="stable"
-    )  # a fixed order: the same rows give the same sums, whatever order they were stored in
-    if chosen.empty:
-        raise ValueError(f"no stored rows with metric {metric!r}")
-    grouped = chosen.groupby(["method", "params", "preset", "region", "order"], sort=True)
-    summary = grouped["value"].agg(
+    ordered = rows.sort_values([*KEYS, "metric", "region", "order", "seed"], kind="stable")
+    grouped = ordered.groupby([*KEYS, "metric", "region", "order"], sort=True)["value"]
+    summary = grouped.agg(
         mean="mean",
         std=lambda v: float(np.std(v, ddof=1)) if len(v) > 1 else float("nan"),
         seeds="count",
@@ -31,64 +38,81 @@ def rmse_summary(rows: pd.DataFrame, metric: str = "rmse") -> pd.DataFrame:
     return summary.reset_index()
 
 
+def wide_table(rows: pd.DataFrame, columns) -> pd.DataFrame:
+    """One row per method/parameters with ``<label> mean`` and ``<label> std`` per column
+    ``(label, metric, order, region)``; methods lacking a metric get NaN there."""
+    summary = summarise(rows).set_index([*KEYS, "metric", "region", "order"])
+    records = []
+    for keys, _ in summary.groupby(level=[0, 1, 2], sort=True):
+        record = dict(zip(KEYS, keys, strict=True))
+        seeds = []
+        for label, metric, order, region in columns:
+            index = (*keys, metric, region, order)
+            if index in summary.index:
+                found = summary.loc[index]
+                record[f"{label} mean"], record[f"{label} std"] = found["mean"], found["std"]
+                seeds.append(int(found["seeds"]))
+            else:
+                record[f"{label} mean"] = record[f"{label} std"] = float("nan")
+        record["seeds"] = min(seeds) if seeds else 0
+        records.append(record)
+    return pd.DataFrame(records)
+
+
 def rmse_wide(rows: pd.DataFrame) -> pd.DataFrame:
-    """One row per method: RMSE mean and std of x, ẋ, ẍ on the interior and on the method's
-    full (valid) samples, with its coverage of the signal and of the interior."""
-    summary = rmse_summary(rows)
-    coverage = rmse_summary(rows, metric="coverage")
-    wide = []
-    for (method, params, preset), group in summary.groupby(["method", "params", "preset"]):
-        record = {
-            "method": method,
-            "params": params,
-            "preset": preset,
-            "seeds": int(group["seeds"].min()),
-        }
-        for region in ("interior", "valid"):
-            for order in sorted(group["order"].unique()):
-                cell = group[(group["region"] == region) & (group["order"] == order)].iloc[0]
-                label = f"{ORDER_LABELS[order]} {REGION_LABELS[region]}"
-                record[f"{label} mean"] = cell["mean"]
-                record[f"{label} std"] = cell["std"]
-        mine = coverage[(coverage["method"] == method) & (coverage["params"] == params)]
-        for region, column in (("valid", "coverage"), ("interior", "interior coverage")):
-            record[column] = float(mine[mine["region"] == region]["mean"].min())
-        wide.append(record)
-    return pd.DataFrame(wide)
+    """RMSE of x, ẋ, ẍ on the interior and on each method's valid samples, with coverage."""
+    return wide_table(rows, RMSE_COLUMNS)
 
 
 def _pm(mean: float, std: float) -> str:
+    if not np.isfinite(mean):
+        return "—"
     return f"{mean:.4g} ± {std:.2g}" if np.isfinite(std) else f"{mean:.4g}"
 
 
-def to_markdown(wide: pd.DataFrame, title: str) -> str:
-    """The wide RMSE table as Markdown: ``mean ± std`` per derivative and region."""
+def to_markdown(wide: pd.DataFrame, title: str, notes: str = "") -> str:
+    """A wide table as Markdown: ``mean ± std`` per column, then the presets' sources."""
     labels = [c[: -len(" mean")] for c in wide.columns if c.endswith(" mean")]
-    header = ["method", "parameters", *(f"RMSE {label}" for label in labels), "coverage", "seeds"]
-    lines = [
-        f"# {title}",
-        "",
-        "| " + " | ".join(header) + " |",
-        "|" + "|".join("---" for _ in header) + "|",
-    ]
+    header = ["method", "parameters", *labels, "seeds"]
+    lines = [f"# {title}", "", "| " + " | ".join(header) + " |",
+             "|" + "|".join("---" for _ in header) + "|"]  # fmt: skip
     for _, row in wide.iterrows():
         cells = [row["method"], f"`{row['params']}`"]
         cells += [_pm(row[f"{label} mean"], row[f"{label} std"]) for label in labels]
-        cells += [f"{row['coverage']:.3f}", str(row["seeds"])]
+        cells.append(str(row["seeds"]))
         lines.append("| " + " | ".join(cells) + " |")
-    lines += [
-        "",
-        "Presets: " + "; ".join(f"{row['method']} ({row['preset']})" for _, row in wide.iterrows()),
-        "",
-    ]
+    sources = "; ".join(f"{row['method']}: {row['preset']}" for _, row in wide.iterrows())
+    lines += (
+        ["", notes, "", f"Presets — {sources}", ""] if notes else ["", f"Presets — {sources}", ""]
+    )
     return "\n".join(lines)
 
 
-def write_rmse_tables(rows: pd.DataFrame, directory: Path, title: str) -> list[Path]:
-    """Write ``rmse.md`` and ``rmse.csv`` into ``directory``; return their paths."""
-    wide = rmse_wide(rows)
+def write_table(wide: pd.DataFrame, directory: Path, stem: str, title: str, notes: str = ""):
+    """Write ``<stem>.md`` and ``<stem>.csv`` into ``directory``; return their paths."""
     directory.mkdir(parents=True, exist_ok=True)
-    markdown, csv = directory / "rmse.md", directory / "rmse.csv"
-    markdown.write_text(to_markdown(wide, title), encoding="utf-8")
+    markdown, csv = directory / f"{stem}.md", directory / f"{stem}.csv"
+    markdown.write_text(to_markdown(wide, title, notes), encoding="utf-8")
     wide.to_csv(csv, index=False)
     return [markdown, csv]
+
+
+def write_run_tables(rows: pd.DataFrame, directory: Path, scenario: str) -> list[Path]:
+    """The RMSE table and, where linear methods ran, the bias/noise decomposition table."""
+    written = write_table(
+        rmse_wide(rows), directory, "rmse",
+        f"RMSE per method on `{scenario}` (mean ± std over seeds)",
+        "interior: the scenario's common interior, the same samples for every method; full: "
+        "every sample the method estimates (its coverage of the signal is given for ẋ).",
+    )  # fmt: skip
+    if rows["metric"].isin(["bias_rmse", "noise_rmse"]).any():
+        decomposition = wide_table(rows, DECOMPOSITION_COLUMNS)
+        decomposition = decomposition[decomposition["ẋ bias mean"].notna()]
+        written += write_table(
+            decomposition, directory, "decomposition",
+            f"Error decomposition on `{scenario}`: interior RMS of the total error, of the "
+            "bias part and of the noise part (mean ± std over seeds)",
+            "For a linear method D, D(x + e) − x⁽ⁿ⁾ = [D(x) − x⁽ⁿ⁾] + D(e): bias = the method "
+            "on the clean signal minus the truth, noise = the method on the noise alone.",
+        )  # fmt: skip
+    return written

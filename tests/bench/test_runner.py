@@ -87,6 +87,10 @@ def test_interrupted_run_keeps_finished_cells_and_resumes_to_the_same_table(tmp_
     summary = runner.run(_cells(), store)
     assert (summary.skipped, summary.computed) == (2, 4)
     assert tables.rmse_wide(store.load()).equals(tables.rmse_wide(reference.load()))
+    decomposition = tables.DECOMPOSITION_COLUMNS
+    assert tables.wide_table(store.load(), decomposition).equals(
+        tables.wide_table(reference.load(), decomposition)
+    )
 
 
 def test_torn_last_line_and_partial_cell_are_dropped(tmp_path):
