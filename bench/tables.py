@@ -78,7 +78,11 @@ def to_markdown(wide: pd.DataFrame, title: str, notes: str = "") -> str:
              "|" + "|".join("---" for _ in header) + "|"]  # fmt: skip
     for _, row in wide.iterrows():
         cells = [row["method"], f"`{row['params']}`"]
-        cells += [_pm(row[f"{label} mean"], row[f"{label} std"]) for label in labels]
+        cells += [
+            f"{row[f'{label} mean']:.3f}" if label.startswith("coverage")
+            else _pm(row[f"{label} mean"], row[f"{label} std"])
+            for label in labels
+        ]  # fmt: skip
         cells.append(str(row["seeds"]))
         lines.append("| " + " | ".join(cells) + " |")
     sources = "; ".join(f"{row['method']}: {row['preset']}" for _, row in wide.iterrows())
