@@ -12,7 +12,7 @@ specifications (``params_of``) and presets, ``preset(name, key)`` an instance at
 """
 
 # Importing the family modules registers their methods (heavy libraries load lazily).
-from methods import butterworth, finite_difference, jacobi, savitzky_golay, sindy
+from methods import butterworth, finite_difference, jacobi, kalman, savitzky_golay, sindy
 from methods._fir import central_mask
 from methods._registry import (
     Estimate,
@@ -44,6 +44,7 @@ __all__ = [
     "finite_difference",
     "get",
     "jacobi",
+    "kalman",
     "method_class",
     "param",
     "params_of",

@@ -1,0 +1,322 @@
+"""Kalman smoothing with a polynomial (constant-acceleration or constant-jerk) model."""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import fft as sp_fft
+
+from methods._registry import Method, Preset, param, register
+from methods._validation import check_dt, check_orders
+
+_STATIONARY = 4 * np.finfo(float).eps  # relative change of the gains that counts as none
+_NEGLIGIBLE = 1e-18  # relative size at which the impulse responses are truncated
+
+
+@dataclass(frozen=True)
+class KalmanModel:
+    r"""The state-space model in scaled states :math:`s_j = x^{(j)} \Delta t^j / j!`
+    (j = 0..m-1): transition F, process noise Q, measurement variance R (H = [1, 0, ...]),
+    and ``to_derivatives`` (:math:`j!/\Delta t^j`) mapping s_j back to :math:`x^{(j)}`."""
+
+    F: np.ndarray
+    Q: np.ndarray
+    R: float
+    to_derivatives: np.ndarray
+
+    @property
+    def states(self) -> int:
+        return self.F.shape[0]
+
+
+def polynomial_model(model_order: int, dt: float, bandwidth_hz: float) -> KalmanModel:
+    """The model of ``kalman``: an (m-1)-times integrated white noise observed in noise.
+
+    In the state :math:`(x, \\dot x, \\dots, x^{(m-1)})`, ``m = model_order + 1``, the
+    transition is :math:`F_{ij} = \\Delta t^{j-i}/(j-i)!` and the process noise is
+    ``filterpy.common.Q_continuous_white_noise`` of spectral density
+    :math:`q = (2\\pi f_b)^{2m} R\\,\\Delta t`, R = 1. For that q the continuous Wiener smoother
+    has :math:`|H| = 1/(1 + (f/f_b)^{2m})`, so ``bandwidth_hz`` (:math:`f_b`) is where it passes
+    one half (-6 dB, like a forward-backward Butterworth at its cutoff). Only q/R matters for
+    the smoothed means (scaling both scales every covariance and leaves the gains unchanged),
+    which is why one parameter, as a bandwidth, describes the smoother.
+
+    The model is returned in the scaled states :math:`s_j = x^{(j)}\\Delta t^j/j!` (the same
+    model under a diagonal change of variables: :math:`F' = TFT^{-1}` holds binomial
+    coefficients, :math:`Q' = TQT^\top`), whose covariances are far better conditioned: with
+    raw derivatives at 1 kHz the entries of Q span 20 orders of magnitude.
+    """
+    from filterpy.common import Q_continuous_white_noise  # lazy: filterpy imports slowly
+
+    states = model_order + 1
+    density = (2 * math.pi * bandwidth_hz) ** (2 * states) * dt
+    noise = np.asarray(Q_continuous_white_noise(dim=states, dt=dt, spectral_density=density))
+    to_derivatives = np.array([math.factorial(j) / dt**j for j in range(states)])
+    scaled_noise = noise / np.outer(to_derivatives, to_derivatives)
+    transition = np.array(
+        [[math.comb(j, i) if j >= i else 0 for j in range(states)] for i in range(states)],
+        dtype=float,
+    )
+    return KalmanModel(F=transition, Q=scaled_noise, R=1.0, to_derivatives=to_derivatives)
+
+
+def initial_state(z: np.ndarray, states: int) -> tuple[np.ndarray, np.ndarray]:
+    r"""Prior mean and covariance of the scaled state one step before the first sample.
+
+    A least-squares polynomial :math:`p(u) = \sum_j c_j u^j` (u in steps) of degree m-1
+    through the first min(n, 4m) samples, sample j at u = j + 1: the scaled state at u = 0 is
+    the coefficients c themselves; covariance 10 R (VᵀV)⁻¹. A polynomial of the model's
+    degree thus starts the filter on its exact state, so the smoother reproduces it exactly.
+    ``z`` has shape (n, channels); the mean has shape (m, channels).
+    """
+    count = min(z.shape[0], 4 * states)
+    steps = np.arange(1, count + 1, dtype=float)
+    vandermonde = steps[:, None] ** np.arange(states)[None, :]
+    coefficients, *_ = np.linalg.lstsq(vandermonde, z[:count], rcond=None)
+    return coefficients, 10.0 * np.linalg.inv(vandermonde.T @ vandermonde)
+
+
+@dataclass(frozen=True)
+class Gains:
+    """Data-independent gains: per-step filter gains K_k and smoother gains C_k for the first
+    ``len(filter_gains)`` steps, then their steady values."""
+
+    filter_gains: np.ndarray  # (T, m)
+    smoother_gains: np.ndarray  # (T, m, m)
+    steady_filter: np.ndarray  # (m,)
+    steady_smoother: np.ndarray  # (m, m)
+
+
+def covariance_recursion(model: KalmanModel, prior_covariance: np.ndarray, n: int) -> Gains:
+    """Run the covariance part of the filter and smoother (filterpy's equations: Joseph-form
+    update, C_k = P_k Fᵀ (F P_k Fᵀ + Q)⁻¹) for n steps or until both gains are stationary
+    to rounding (relative change <= 4 eps for 2m consecutive steps): the recursion's own
+    fixed point, which is what filterpy converges to."""
+    F, Q, R, m = model.F, model.Q, model.R, model.states
+    identity = np.eye(m)
+    P = prior_covariance
+    filter_gains, smoother_gains = [], []
+    quiet = 0
+    for _ in range(n):
+        predicted = F @ P @ F.T + Q
+        gain = predicted[:, 0] / (predicted[0, 0] + R)
+        i_kh = identity.copy()
+        i_kh[:, 0] -= gain
+        P = i_kh @ predicted @ i_kh.T + R * np.outer(gain, gain)
+        smoother = P @ F.T @ np.linalg.inv(F @ P @ F.T + Q)
+        if filter_gains:
+            still = np.max(np.abs(gain - filter_gains[-1])) <= _STATIONARY * np.max(np.abs(gain))
+            still &= np.max(np.abs(smoother - smoother_gains[-1])) <= _STATIONARY * np.max(
+                np.abs(smoother)
+            )
+            quiet = quiet + 1 if still else 0
+        filter_gains.append(gain)
+        smoother_gains.append(smoother)
+        if quiet >= 2 * m:
+            break
+    return Gains(
+        filter_gains=np.array(filter_gains),
+        smoother_gains=np.array(smoother_gains),
+        steady_filter=filter_gains[-1],
+        steady_smoother=smoother_gains[-1],
+    )
+
+
+def _powers_times(matrix: np.ndarray, vectors: np.ndarray, limit: int) -> np.ndarray:
+    """``matrix^j @ vectors`` for j = 0.. until negligible (or ``limit``): shape (L, ...)."""
+    out = [vectors]
+    scale = np.max(np.abs(vectors)) or 1.0
+    current = vectors
+    while len(out) < limit:
+        current = matrix @ current
+        out.append(current)
+        if np.max(np.abs(current)) < _NEGLIGIBLE * scale and len(out) > 8:
+            break
+    return np.array(out)
+
+
+def _causal_filter(u: np.ndarray, kernels: np.ndarray) -> np.ndarray:
+    """y_k = sum_j kernels[j] @ u_{k-j} for vector sequences: u (N, b, c), kernels (L, a, b)
+    -> (N, a, c).
+
+    Overlap-add FFT convolution with the spectra shared: each block of u is transformed once
+    per input component and mixed by the kernel spectra (a x b) before one inverse transform
+    per output, so the cost is that of a + b convolutions, not a x b."""
+    n, inputs, channels = u.shape
+    length, outputs = kernels.shape[0], kernels.shape[1]
+    size = sp_fft.next_fast_len(max(4 * length, 1 << 12), real=True)
+    hop = size - length + 1
+    blocks = -(-n // hop)
+    # time last and contiguous, each block already zero-padded to the FFT size
+    padded = np.zeros((inputs, channels, blocks, size))
+    series = np.zeros((inputs, channels, blocks * hop))
+    series[:, :, :n] = u.transpose(1, 2, 0)
+    padded[..., :hop] = series.reshape(inputs, channels, blocks, hop)
+    spectra_u = sp_fft.rfft(padded, axis=-1, workers=-1)
+    kernel_padded = np.zeros((outputs, inputs, size))
+    kernel_padded[..., :length] = kernels.transpose(1, 2, 0)
+    spectra_k = sp_fft.rfft(kernel_padded, axis=-1)  # (a, b, F)
+    out = np.empty((outputs, channels, blocks, hop))
+    for a in range(outputs):
+        mixed = sum(spectra_k[a, b][None, None, :] * spectra_u[b] for b in range(inputs)
+                    if spectra_k[a, b].any())  # fmt: skip
+        pieces = sp_fft.irfft(mixed, n=size, axis=-1, workers=-1)  # (channels, blocks, size)
+        out[a] = pieces[:, :, :hop]
+        out[a, :, 1:, : length - 1] += pieces[:, :-1, hop : hop + length - 1]
+    flat = out.reshape(outputs, channels, blocks * hop)[:, :, :n]
+    return flat.transpose(2, 0, 1)
+
+
+def rts_smooth(z: np.ndarray, model: KalmanModel, mean0, covariance0) -> np.ndarray:
+    """Kalman filter + Rauch-Tung-Striebel smoother, equal to filterpy's ``batch_filter`` +
+    ``rts_smoother`` (predict then update at every sample) for every channel at once.
+
+    The covariances do not depend on the data, so they are run once until the gains are
+    steady; the transient is stepped explicitly and the steady remainder is a linear
+    time-invariant recursion, applied as a (truncated, < 1e-18 relative) impulse response by
+    FFT convolution. ``z`` has shape (n, channels); returns the smoothed states (n, m, channels).
+    """
+    F, m = model.F, model.states
+    n = z.shape[0]
+    gains = covariance_recursion(model, covariance0, n)
+    transient = len(gains.filter_gains)
+    filtered = np.empty((n, m, z.shape[1]))
+    state = mean0
+    for k in range(min(n, transient)):
+        predicted = F @ state
+        state = predicted + np.outer(gains.filter_gains[k], z[k] - predicted[0])
+        filtered[k] = state
+    if n > transient:
+        # x_k = A x_{k-1} + K z_k with A = (I - K H) F, from k = transient on.
+        steady = gains.steady_filter
+        a_matrix = F - np.outer(steady, F[0])
+        impulse = _powers_times(a_matrix, steady[:, None], n - transient)  # (L, m, 1)
+        tail = z[transient:][:, None, :]
+        filtered[transient:] = _causal_filter(tail, impulse)
+        start = _powers_times(a_matrix, filtered[transient - 1], n - transient + 1)[1:]
+        filtered[transient : transient + start.shape[0]] += start
+    smoothed = np.empty_like(filtered)
+    smoothed[n - 1] = filtered[n - 1]
+    if n - 1 > transient:
+        # x~_k = C x~_{k+1} + (I - C F) x^_k for k in [transient, n-2], run in reversed time.
+        c_matrix = gains.steady_smoother
+        reversed_filtered = filtered[transient:][::-1].copy()  # index i <-> k = n - 1 - i
+        last = reversed_filtered[0].copy()
+        reversed_filtered[0] = 0.0
+        powers = _powers_times(c_matrix, np.eye(m), n - transient)  # C^j
+        kernels = powers @ (np.eye(m) - c_matrix @ F)  # G_j = C^j (I - C F)
+        result = _causal_filter(reversed_filtered, kernels)
+        ends = powers @ last  # C^i x^_{n-1}
+        result[: ends.shape[0]] += ends
+        smoothed[transient:] = result[::-1]
+    for k in range(min(n - 2, transient - 1), -1, -1):
+        c_k = gains.smoother_gains[k]
+        smoothed[k] = filtered[k] + c_k @ (smoothed[k + 1] - F @ filtered[k])
+    return smoothed
+
+
+@functools.lru_cache(maxsize=64)
+def _cached_model(model_order: int, dt: float, bandwidth_hz: float) -> KalmanModel:
+    return polynomial_model(model_order, dt, bandwidth_hz)
+
+
+@register("kalman")
+class KalmanSmoother(Method):
+    """Rauch-Tung-Striebel smoother of a constant-acceleration (or constant-jerk) model.
+
+    .. math::
+        s_{k} = F s_{k-1} + w_k, \\quad z_k = s_{k,0} + v_k, \\quad
+        \\hat x^{(n)}_k = E[s_{k,n} \\mid z_0, \\dots, z_{N-1}]
+
+    with the model of :func:`polynomial_model` (filterpy's ``Q_continuous_white_noise``) and
+    the prior of :func:`initial_state`. Equal to filterpy's ``KalmanFilter.batch_filter`` +
+    ``rts_smoother`` (tested to 1e-9), computed by :func:`rts_smooth` over all channels at
+    once. Linear in the data; estimates every sample; exact on polynomials of degree
+    ``model_order`` (the model's own signals).
+
+    Parameters
+    ----------
+    bandwidth_hz : float > 0
+        Where the steady-state smoother passes one half; must be below Nyquist.
+    model_order : {2, 3}
+        2: constant acceleration (white jerk), 3: constant jerk (white snap).
+
+    References
+    ----------
+    H. E. Rauch, F. Tung, C. T. Striebel, AIAA J. 3(8) (1965) 1445-1450; R. Labbe, FilterPy.
+    """
+
+    bandwidth_hz: float = param(
+        20.0, low=0.0, low_open=True, tune_low=0.1, tune_high=200.0, log=True,
+        doc="-6 dB point of the steady-state smoother, Hz (sets q/R)",
+    )  # fmt: skip
+    model_order: int = param(
+        2, choices=(2, 3), integer=True, doc="2: constant acceleration, 3: constant jerk"
+    )
+
+    presets = {
+        "paper-signal": Preset(
+            {"bandwidth_hz": 24.0, "model_order": 3},
+            "diffbench, not in the paper: grid over bandwidth 5-80 Hz (40 log-spaced) x model "
+            "order 2, 3 on the held-out noise seed 10000, least interior ẍ RMSE",
+        ),
+    }
+    reference = "Rauch, Tung, Striebel (1965); filterpy"
+    time_symmetric = False  # the prior and the transients differ at the two ends
+
+    def check_step(self, dt: float) -> None:
+        nyquist = 0.5 / dt
+        if self.bandwidth_hz >= nyquist:
+            raise ValueError(
+                f"`bandwidth_hz` must be below the Nyquist frequency {nyquist:g} Hz for "
+                f"dt={dt!r} s, got {self.bandwidth_hz!r}"
+            )
+
+    def min_samples(self, dt: float) -> int:
+        return 2 * (self.model_order + 1)
+
+    def exact_degree(self, order: int) -> float | None:
+        return self.model_order
+
+    def model(self, dt: float) -> KalmanModel:
+        return _cached_model(self.model_order, float(dt), self.bandwidth_hz)
+
+    def frequency_response(self, frequency_hz, dt: float, order: int) -> np.ndarray:
+        """Response of the steady-state smoother (away from the ends):
+        :math:`v = (I - A e^{-i\\theta})^{-1} K`, :math:`w = (I - C e^{i\\theta})^{-1}(I - CF) v`,
+        :math:`H = w_n\\, n!/\\Delta t^n`, with A = (I - KH)F and the steady gains K, C."""
+        dt = check_dt(dt)
+        self.check_step(dt)
+        check_orders((order,))
+        model = self.model(dt)
+        _, covariance0 = initial_state(np.zeros((4 * model.states, 1)), model.states)
+        gains = covariance_recursion(model, covariance0, 10**7)
+        F, m = model.F, model.states
+        a_matrix = F - np.outer(gains.steady_filter, F[0])
+        c_matrix = gains.steady_smoother
+        theta = 2 * np.pi * np.atleast_1d(np.asarray(frequency_hz, dtype=np.float64)) * dt
+        response = np.empty(theta.shape, dtype=complex)
+        for index, angle in enumerate(theta):
+            forward = np.linalg.solve(
+                np.eye(m) - a_matrix * np.exp(-1j * angle), gains.steady_filter
+            )
+            backward = np.linalg.solve(
+                np.eye(m) - c_matrix * np.exp(1j * angle), (np.eye(m) - c_matrix @ F) @ forward
+            )
+            response[index] = backward[order] * model.to_derivatives[order]
+        return response
+
+    def _estimate(self, x, dt, orders):
+        flat = x.reshape(x.shape[0], -1)
+        model = self.model(dt)
+        mean0, covariance0 = initial_state(flat, model.states)
+        smoothed = rts_smooth(flat, model, mean0, covariance0)
+        valid = np.ones(x.shape[0], dtype=bool)
+        values = {
+            order: (smoothed[:, order, :] * model.to_derivatives[order]).reshape(x.shape)
+            for order in orders
+        }
+        return values, {order: valid.copy() for order in orders}

@@ -1,0 +1,107 @@
+"""The Kalman smoother against filterpy's own filter and smoother."""
+
+import numpy as np
+import pytest
+
+import methods
+from methods.kalman import covariance_recursion, initial_state, polynomial_model, rts_smooth
+
+
+def _filterpy(z, model, mean0, covariance0):
+    from filterpy.kalman import KalmanFilter
+
+    kf = KalmanFilter(dim_x=model.states, dim_z=1)
+    kf.F, kf.Q = model.F, model.Q
+    kf.R = np.array([[model.R]])
+    kf.H = np.eye(1, model.states)
+    kf.x = mean0.reshape(-1, 1).copy()
+    kf.P = covariance0.copy()
+    means, covariances, _, _ = kf.batch_filter(z)
+    smoothed, *_ = kf.rts_smoother(means, covariances)
+    return smoothed[:, :, 0]
+
+
+@pytest.mark.parametrize(
+    ("model_order", "n", "bandwidth_hz", "dt"),
+    [(2, 9, 20.0, 1e-3), (2, 60, 20.0, 1e-3), (3, 60, 40.0, 1e-3), (2, 3000, 20.0, 1e-3),
+     (3, 3000, 5.0, 1e-3), (2, 500, 1.0, 0.01), (3, 2500, 60.0, 1e-3), (2, 4000, 150.0, 1e-3)],
+)  # fmt: skip
+def test_fast_smoother_equals_filterpy(model_order, n, bandwidth_hz, dt):
+    rng = np.random.default_rng(n + model_order)
+    t = np.arange(n) * dt
+    z = np.sin(2 * np.pi * 3 * t) + 0.5 * t**2 + 0.1 * rng.standard_normal(n)
+    model = polynomial_model(model_order, dt, bandwidth_hz)
+    mean0, covariance0 = initial_state(z[:, None], model.states)
+    fast = rts_smooth(z[:, None], model, mean0, covariance0)[:, :, 0]
+    reference = _filterpy(z, model, mean0[:, 0], covariance0)
+    scale = np.max(np.abs(reference), axis=0)
+    assert np.all(np.max(np.abs(fast - reference), axis=0) <= 1e-9 * scale)
+
+
+def test_the_fast_path_is_taken_and_the_transient_is_short_of_the_signal():
+    model = polynomial_model(3, 1e-3, 24.0)
+    _, covariance0 = initial_state(np.zeros((16, 1)), model.states)
+    gains = covariance_recursion(model, covariance0, 10**6)
+    assert 50 < len(gains.filter_gains) < 5000  # steady long before 1e6 samples
+
+
+def test_method_equals_filterpy_in_raw_derivative_units_on_every_channel():
+    dt = 1e-3
+    rng = np.random.default_rng(5)
+    x = rng.standard_normal((700, 2)).cumsum(axis=0) * 0.01
+    method = methods.get("kalman", bandwidth_hz=30.0, model_order=2)
+    estimate = method(x, dt)
+    model = method.model(dt)
+    for channel in range(2):
+        mean0, covariance0 = initial_state(x[:, [channel]], model.states)
+        reference = _filterpy(x[:, channel], model, mean0[:, 0], covariance0)
+        for order in (0, 1, 2):
+            expected = reference[:, order] * model.to_derivatives[order]
+            np.testing.assert_allclose(
+                estimate[order][:, channel], expected, rtol=0, atol=1e-9 * np.max(np.abs(expected))
+            )
+
+
+def test_scaled_model_is_filterpys_model_in_other_units():
+    """F' = T F T^-1 and Q' = T Q T^T with T = diag(dt^j / j!), F and Q from filterpy's
+    conventions (Q_continuous_white_noise)."""
+    from filterpy.common import Q_continuous_white_noise
+
+    dt, bandwidth = 2e-3, 10.0
+    model = polynomial_model(3, dt, bandwidth)
+    raw_f = np.array([[1, dt, dt**2 / 2, dt**3 / 6], [0, 1, dt, dt**2 / 2], [0, 0, 1, dt],
+                      [0, 0, 0, 1]])  # fmt: skip
+    density = (2 * np.pi * bandwidth) ** 8 * dt
+    raw_q = Q_continuous_white_noise(dim=4, dt=dt, spectral_density=density)
+    scale = np.diag(1 / model.to_derivatives)
+    np.testing.assert_allclose(model.F, scale @ raw_f @ np.linalg.inv(scale), rtol=1e-12)
+    np.testing.assert_allclose(model.Q, scale @ raw_q @ scale.T, rtol=1e-12)
+
+
+def test_bandwidth_is_the_half_gain_point_of_the_steady_smoother():
+    """|H(f_b)| ~ 1/2 for the smoothed position (exact for the continuous Wiener smoother)."""
+    for model_order, bandwidth in ((2, 10.0), (3, 24.0)):
+        method = methods.get("kalman", bandwidth_hz=bandwidth, model_order=model_order)
+        gain = abs(method.frequency_response([bandwidth], 1e-3, 0)[0])
+        assert gain == pytest.approx(0.5, abs=0.02)
+        assert abs(method.frequency_response([bandwidth / 10], 1e-3, 0)[0]) == pytest.approx(
+            1.0, abs=1e-3
+        )
+
+
+@pytest.mark.parametrize(
+    ("params", "dt", "x", "message"),
+    [
+        ({"bandwidth_hz": 0.0}, 1e-3, None, r"`bandwidth_hz` must be a finite number in \(0, "),
+        ({"bandwidth_hz": -3.0}, 1e-3, None, r"`bandwidth_hz` must be a finite number"),
+        ({"model_order": 4}, 1e-3, None, r"`model_order` must be one of \{2, 3\}"),
+        ({"model_order": 1}, 1e-3, None, r"`model_order` must be one of \{2, 3\}"),
+        ({"bandwidth_hz": 600.0}, 1e-3, np.zeros(100), r"`bandwidth_hz` must be below the Nyquist"),
+        ({}, 1e-3, np.r_[np.zeros(50), np.nan], r"`x` holds 1 NaN"),
+        ({}, 1e-3, np.zeros(5), r"`x` has 5 samples on axis 0; at least 6"),
+    ],
+)  # fmt: skip
+def test_bad_input(params, dt, x, message):
+    with pytest.raises(ValueError, match=message):
+        method = methods.get("kalman", **params)
+        method(np.zeros(100) if x is None else x, dt)
