@@ -67,7 +67,11 @@ def rmse_wide(rows: pd.DataFrame) -> pd.DataFrame:
 def _pm(mean: float, std: float) -> str:
     if not np.isfinite(mean):
         return "—"
-    return f"{mean:.4g} ± {std:.2g}" if np.isfinite(std) else f"{mean:.4g}"
+    if not np.isfinite(std):
+        return f"{mean:.4g}"
+    if std <= 1e-12 * abs(mean):  # a deterministic number (e.g. a bias): rounding, not spread
+        return f"{mean:.4g} ± 0"
+    return f"{mean:.4g} ± {std:.2g}"
 
 
 def to_markdown(wide: pd.DataFrame, title: str, notes: str = "") -> str:
