@@ -70,6 +70,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     figures.add_argument("--no-progress", action="store_true", help="no progress bar")
 
+    identify = commands.add_parser(
+        "identify", help="identify the 2R robot's base parameters with every method (IDIM-LS)"
+    )
+    identify.add_argument("target", choices=["sim"], help="sim: the simulated paper robot")
+    identify.add_argument("--scenario", default="robot-sim", help="robot scenario (sim)")
+    identify.add_argument(
+        "--seeds", type=_positive_int, default=10, help="noise seeds 0..N-1 (default 10)"
+    )
+    identify.add_argument("--out", type=Path, default=Path("results"))
+    identify.add_argument("--methods", default=None, help="comma-separated method names")
+    identify.add_argument("--no-progress", action="store_true", help="no progress bar")
+
     table = commands.add_parser("table", help="render the tables of a stored run again")
     table.add_argument("scenario")
     table.add_argument("--out", type=Path, default=Path("results"))
@@ -130,16 +142,7 @@ def _cmd_run(args: argparse.Namespace) -> None:
     cells = runner.preset_cells(args.scenario, range(args.seeds), names)
     directory = _scenario_dir(args.out, args.scenario)
     store = ResultStore(directory / "cells.csv")
-    try:
-        summary = runner.run(cells, store, progress=_progress(not args.no_progress))
-    except KeyboardInterrupt:
-        stored = len(store.completed_keys())
-        print(
-            f"diffbench: interrupted; {stored} cells are stored in {store.path}; "
-            "run the same command to resume",
-            file=sys.stderr,
-        )
-        raise SystemExit(EXIT_INTERRUPTED) from None
+    summary = _run_cells(cells, store, not args.no_progress)
     written = _render(store, directory, args.scenario)
     print(
         f"{summary.computed} cells computed, {summary.skipped} already stored; "
@@ -164,19 +167,7 @@ def _cmd_paper_figures(args: argparse.Namespace) -> None:
     written += paper.write_figure3(directory) + paper.write_frequency_table(directory)
     influence = args.out / "jacobi-influence"
     store = ResultStore(influence / "cells.csv")
-    try:
-        runner.run(
-            paper.influence_cells(range(args.seeds)),
-            store,
-            progress=_progress(not args.no_progress),
-        )
-    except KeyboardInterrupt:
-        print(
-            f"diffbench: interrupted; finished cells are stored in {store.path}; "
-            "run the same command to resume",
-            file=sys.stderr,
-        )
-        raise SystemExit(EXIT_INTERRUPTED) from None
+    _run_cells(paper.influence_cells(range(args.seeds)), store, not args.no_progress)
     written += tables.write_table(
         tables.wide_table(store.load(), tables.DECOMPOSITION_COLUMNS),
         influence,
@@ -185,6 +176,58 @@ def _cmd_paper_figures(args: argparse.Namespace) -> None:
         "`paper-signal` as κ = μ, q and T move from the preset (interior RMS, mean ± std)",
         "Preset κ = μ = 12, q = 6, T = 0.21 s (trapezoid rule); one parameter changed per row.",
     )
+    for path in written:
+        print(path)
+
+
+def _run_cells(cells, store: ResultStore, progress: bool) -> runner.RunSummary:
+    try:
+        return runner.run(cells, store, progress=_progress(progress))
+    except KeyboardInterrupt:
+        stored = len(store.completed_keys())
+        print(
+            f"diffbench: interrupted; {stored} cells are stored in {store.path}; "
+            "run the same command to resume",
+            file=sys.stderr,
+        )
+        raise SystemExit(EXIT_INTERRUPTED) from None
+
+
+def _cmd_identify(args: argparse.Namespace) -> None:
+    from bench import paper
+    from bench.robot import well_excited
+    from signals import robot2r
+
+    scenario = robot2r.get_robot_scenario(args.scenario)
+    names = [n.strip() for n in args.methods.split(",") if n.strip()] if args.methods else None
+    cells = runner.preset_cells(args.scenario, range(args.seeds), names)
+    directory = args.out / f"identify-{args.scenario}"
+    store = ResultStore(directory / "cells.csv")
+    summary = _run_cells(cells, store, not args.no_progress)
+    rows = store.load()
+    table = tables.identification_table(rows, robot2r.PARAMETER_NAMES, scenario.true_parameters)
+    directory.mkdir(parents=True, exist_ok=True)
+    table.to_csv(directory / "table2.csv", index=False)
+    (directory / "table2.md").write_text(tables.identification_markdown(
+        table,
+        f"Base parameters of `{args.scenario}` identified with each differentiator (IDIM-LS; "
+        "the paper's table II layout; means over seeds)",
+        "X̂: mean estimate; σ: one standard deviation σ_X from σ_ρ²(WᵀW)⁻¹ (the paper's table "
+        "II column 'σ' is about 2σ); %σXr = 100 σ/|X̂|; err: (X̂ − X)/X in %, mean ± std over "
+        "seeds. Robot presets of each method; L = 0.5 m.",
+    ), encoding="utf-8")  # fmt: skip
+    written = [directory / "table2.md", directory / "table2.csv"]
+    mask = well_excited(scenario)
+    excited = ", ".join(n for n, w in zip(robot2r.PARAMETER_NAMES, mask, strict=True) if w)
+    written += tables.write_table(
+        tables.wide_table(rows, tables.IDENTIFICATION_SUMMARY), directory, "summary",
+        f"Identification on `{args.scenario}`: parameter error, torque prediction on a fresh "
+        "trajectory, derivative errors (mean ± std over seeds)",
+        "‖X̂−X‖/‖X‖ over the parameters identified to < 10 % relative σ with exact derivatives "
+        f"({excited}).",
+    )  # fmt: skip
+    written += paper.write_figure5(directory, args.scenario)
+    print(f"{summary.computed} cells computed, {summary.skipped} already stored")
     for path in written:
         print(path)
 
@@ -209,6 +252,8 @@ def main(argv: list[str] | None = None) -> int:
             _cmd_run(args)
         elif args.command == "paper-figures":
             _cmd_paper_figures(args)
+        elif args.command == "identify":
+            _cmd_identify(args)
         elif args.command == "table":
             _cmd_table(args)
     except (UsageError, ValueError) as error:

@@ -236,3 +236,49 @@ def write_frequency_table(directory: Path) -> list[Path]:
         )
     markdown.write_text("\n".join([*lines, ""]), encoding="utf-8")
     return [csv, markdown]
+
+
+def figure5_data(scenario_name: str = "robot-sim", seed: int = 0) -> pd.DataFrame:
+    """Position, velocity and acceleration of joint 1: the truth and the estimates of the
+    Jacobi and Butterworth robot presets (the paper's fig. 5, here against the exact truth)."""
+    from signals import robot2r
+
+    scenario = robot2r.get_robot_scenario(scenario_name)
+    realisation = scenario.realise(seed)
+    frame = {
+        "t_s": realisation.t,
+        "q1_measured": realisation.q[:, 0],
+        "qd1_true": realisation.truth.qd[:, 0],
+        "qdd1_true": realisation.truth.qdd[:, 0],
+    }
+    for name in ("jacobi", "butterworth"):
+        method, _ = methods.preset(name, "robot")
+        estimate = method(realisation.q, realisation.dt_s)
+        frame[f"qd1_{name}"] = estimate[1][:, 0]
+        frame[f"qdd1_{name}"] = estimate[2][:, 0]
+    return pd.DataFrame(frame)
+
+
+def write_figure5(directory: Path, scenario_name: str = "robot-sim") -> list[Path]:
+    csv = directory / "fig5_robot_derivatives.csv"
+    figure5_data(scenario_name).to_csv(csv, index=False)
+    data = pd.read_csv(csv)
+    plt = _pyplot()
+    fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+    axes[0].plot(data["t_s"], data["q1_measured"], lw=0.8)
+    axes[0].set_ylabel("q1 (rad)")
+    for axis, prefix, unit in ((axes[1], "qd1", "rad/s"), (axes[2], "qdd1", "rad/s²")):
+        axis.plot(data["t_s"], data[f"{prefix}_true"], "k", lw=1.6, label="true")
+        axis.plot(data["t_s"], data[f"{prefix}_jacobi"], lw=0.9, label="central Jacobi")
+        axis.plot(data["t_s"], data[f"{prefix}_butterworth"], lw=0.9, label="Butterworth")
+        axis.set_ylabel(f"{'velocity' if prefix == 'qd1' else 'acceleration'} ({unit})")
+        axis.legend(fontsize=8, loc="upper right")
+    for axis in axes:
+        axis.grid(alpha=0.3)
+    axes[-1].set_xlabel("time (s)")
+    fig.suptitle(f"Fig. 5: joint 1 of `{scenario_name}` (robot presets, noise seed 0)")
+    fig.tight_layout()
+    png = directory / "fig5_robot_derivatives.png"
+    fig.savefig(png, dpi=120)
+    plt.close(fig)
+    return [csv, png]

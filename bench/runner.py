@@ -20,6 +20,7 @@ from bench.frequency import decompose_error
 from bench.provenance import provenance
 from bench.scores import score_estimate
 from bench.store import ResultStore, canonical_params, cell_key
+from signals import robot2r
 
 
 @dataclass(frozen=True)
@@ -44,7 +45,7 @@ def preset_cells(
 
     Raises ``ValueError`` for an unknown scenario or method name.
     """
-    chosen = signals.get_scenario(scenario)
+    chosen = find_scenario(scenario)
     names = list(method_names) if method_names else methods.available()
     instances = []
     for name in names:
@@ -57,15 +58,30 @@ def preset_cells(
     ]
 
 
+def find_scenario(name: str):
+    """A signal scenario or a robot scenario by name; an unknown name lists both kinds."""
+    if name in robot2r.available_robot_scenarios():
+        return robot2r.get_robot_scenario(name)
+    if name in signals.available_scenarios():
+        return signals.get_scenario(name)
+    known = signals.available_scenarios() + robot2r.available_robot_scenarios()
+    raise ValueError(f"unknown scenario {name!r}; available: {', '.join(sorted(known))}")
+
+
 def compute_cell(cell: Cell) -> list[dict[str, Any]]:
     """Score rows of one cell (pure computation: no I/O).
 
-    Linear methods also get the interior RMS of the bias part (the method on the clean
+    On a robot scenario the cell is an identification (see :mod:`bench.robot`). Otherwise
+    linear methods also get the interior RMS of the bias part (the method on the clean
     signal, minus the truth) and of the noise part (the method on the noise alone) of ẋ, ẍ.
     """
-    scenario = signals.get_scenario(cell.scenario)
-    realisation = scenario.realise(cell.seed)
+    scenario = find_scenario(cell.scenario)
     method = methods.get(cell.method, **cell.params)
+    if isinstance(scenario, robot2r.RobotScenario):
+        from bench.robot import score_identification
+
+        return score_identification(method, scenario, cell.seed)
+    realisation = scenario.realise(cell.seed)
     estimate = method(realisation.x, realisation.dt_s)
     rows = score_estimate(estimate, realisation.truth, realisation.interior)
     if method.linear:

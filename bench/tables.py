@@ -124,3 +124,63 @@ def write_run_tables(rows: pd.DataFrame, directory: Path, scenario: str) -> list
             "on the clean signal minus the truth, noise = the method on the noise alone.",
         )  # fmt: skip
     return written
+
+
+IDENTIFICATION_SUMMARY = [
+    ("‖X̂−X‖/‖X‖ (well excited)", "param_error_norm", 0, "identification"),
+    ("τ RMSE joint 1 (N·m)", "torque_rmse.joint1", 0, "identification"),
+    ("τ RMSE joint 2 (N·m)", "torque_rmse.joint2", 0, "identification"),
+    ("q̇ RMSE (rad/s)", "derivative_rmse", 1, "identification"),
+    ("q̈ RMSE (rad/s²)", "derivative_rmse", 2, "identification"),
+    ("σ_ρ (N·m)", "sigma_rho", 0, "identification"),
+    ("cond(W)", "cond_W", 0, "identification"),
+    ("equations", "equations", 0, "identification"),
+]
+
+
+def identification_table(rows: pd.DataFrame, names, truth=None) -> pd.DataFrame:
+    """The paper's table II layout: one row per parameter; per method the mean over seeds of
+    X̂, of its one-sigma σ_X and of %σ_Xr, and (with ``truth``) the relative error in %
+    (mean ± std over seeds)."""
+    summary = summarise(rows).set_index([*KEYS, "metric", "region", "order"])["mean"]
+    spread = summarise(rows).set_index([*KEYS, "metric", "region", "order"])["std"]
+    methods_run = sorted({(m, p, s) for m, p, s, *_ in summary.index})
+    records = []
+    for index, name in enumerate(names):
+        record = {"parameter": name}
+        if truth is not None:
+            record["true"] = float(truth[index])
+        for method, params, preset in methods_run:
+
+            def value(metric, method=method, params=params, preset=preset):
+                return summary.get((method, params, preset, metric, "identification", 0))
+
+            record[f"{method} X̂"] = value(f"estimate.{name}")
+            record[f"{method} σ"] = value(f"sigma.{name}")
+            record[f"{method} %σXr"] = value(f"rel_sigma_pct.{name}")
+            if truth is not None:
+                key = (method, params, preset, f"rel_error.{name}", "identification", 0)
+                record[f"{method} error % mean"] = 100 * summary.get(key)
+                record[f"{method} error % std"] = 100 * spread.get(key)
+        records.append(record)
+    return pd.DataFrame(records)
+
+
+def identification_markdown(table: pd.DataFrame, title: str, notes: str) -> str:
+    """Markdown of :func:`identification_table`: one column per method with X̂, σ, %σ_Xr
+    and the error."""
+    methods_run = [c[: -len(" X̂")] for c in table.columns if c.endswith(" X̂")]
+    header = ["parameter", *(["true"] if "true" in table else []), *methods_run]
+    lines = [f"# {title}", "", "| " + " | ".join(header) + " |",
+             "|" + "|".join("---" for _ in header) + "|"]  # fmt: skip
+    for _, row in table.iterrows():
+        cells = [row["parameter"]] + ([f"{row['true']:.4g}"] if "true" in table else [])
+        for method in methods_run:
+            text = (f"{row[f'{method} X̂']:.4g} (σ {row[f'{method} σ']:.2g}, "
+                    f"{row[f'{method} %σXr']:.3g} %)")  # fmt: skip
+            if f"{method} error % mean" in table:
+                mean, std = row[f"{method} error % mean"], row[f"{method} error % std"]
+                text += f"; err {mean:+.2f} ± {std:.2f} %"
+            cells.append(text)
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join([*lines, "", notes, ""])

@@ -263,6 +263,11 @@ class KalmanSmoother(Method):
             "diffbench, not in the paper: grid over bandwidth 5-80 Hz (40 log-spaced) x model "
             "order 2, 3 on the held-out noise seed 10000, least interior ẍ RMSE",
         ),
+        "robot": Preset(
+            {"bandwidth_hz": 8.75, "model_order": 2},
+            "diffbench, not in the paper: grid on robot-sim, held-out noise seed 10000, least "
+            "interior q̈ RMSE",
+        ),
     }
     reference = "Rauch, Tung, Striebel (1965); filterpy"
     time_symmetric = False  # the prior and the transients differ at the two ends

@@ -57,6 +57,11 @@ class SavitzkyGolay(FirMethod):
             "diffbench, not in the paper: grid over window 20-400 ms x degree 1-9 on the held-out "
             "noise seed 10000, least interior ẍ RMSE (near-ties broken by ẋ RMSE)",
         ),
+        "robot": Preset(
+            {"window_s": 0.2, "degree": 5},
+            "diffbench, not in the paper: grid on robot-sim, held-out noise seed 10000, least "
+            "interior q̈ RMSE",
+        ),
     }
     reference = "Savitzky & Golay (1964)"
 

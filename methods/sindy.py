@@ -65,6 +65,11 @@ class SindySmoothing(Method):
             "diffbench, not in the paper: grid over window 20-400 ms x degree 1-9 on the held-out "
             "noise seed 10000, least interior ẍ RMSE (near-ties broken by ẋ RMSE)",
         ),
+        "robot": Preset(
+            {"window_s": 0.4, "degree": 6, "accuracy_order": 2},
+            "diffbench, not in the paper: grid on robot-sim, held-out noise seed 10000, least "
+            "interior q̈ RMSE",
+        ),
     }
     reference = "de Silva et al. (2020), pysindy"
 

@@ -1,9 +1,13 @@
 """diffbench signals: clean test signals with exact derivatives, seeded noise models, and the
-named scenarios every method is benchmarked on (Guo et al., AIM 2015, section III.C).
+named scenarios every method is benchmarked on (Guo et al., AIM 2015, section III.C); the
+paper's 2R robot (``signals.robot2r``: model, regressor, closed-loop simulation) and the real
+DFKI double pendulum recordings (``signals.dfki``: loader and model).
 
-This package imports only NumPy, SciPy and the standard library; it does no I/O.
+This package imports only NumPy, SciPy and the standard library; its only I/O is reading the
+recordings packaged with it (``signals/data``, BSD-3, licence beside the data).
 """
 
+from signals import dfki, robot2r
 from signals.clean import (
     Chirp,
     DampedOscillation,
@@ -42,9 +46,11 @@ __all__ = [
     "Truth",
     "available_scenarios",
     "available_signals",
+    "dfki",
     "get_scenario",
     "get_signal",
     "register_scenario",
     "register_signal",
+    "robot2r",
     "signal_class",
 ]

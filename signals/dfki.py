@@ -1,0 +1,642 @@
+r"""Real 2R robot recordings: the DFKI double pendulum, its model and its base parameters.
+
+Six 10 s recordings of a real two-link robot (DFKI RIC Underactuated Robotics Lab, design C.0,
+2022-09-14, PD tracking of excitation trajectories; BSD 3-Clause, see ``data/
+dfki_double_pendulum/LICENSE`` and ``README.md`` beside the data) and the lab's own identified
+model. The real parameters are unknown, so on these runs a differentiator is judged by the torque
+a model predicts from its :math:`\dot q, \ddot q`, and by its velocity against the driver's.
+
+The robot
+---------
+Two revolute joints with horizontal axes: the links swing in a vertical plane and gravity acts.
+:math:`q_1` is measured from the downward vertical, :math:`q_2` relative to link 1. Both joints
+are quasi-direct-drive motors (gear ratio :math:`g_r = 6`, rotor inertia :math:`I_r`). The lab's
+model (their README and their ``plant.py``), with :math:`c_2 = \cos q_2`, :math:`s_1 = \sin q_1`,
+:math:`s_2 = \sin q_2`, :math:`s_{12} = \sin(q_1 + q_2)`:
+
+.. math::
+
+    \tau = M(q)\,\ddot q + C(q, \dot q)\,\dot q - G(q) + F(\dot q),
+
+    M_{11} = I_1 + I_2 + m_2 l_1^2 + 2 m_2 l_1 r_2 c_2 + (g_r^2 + 1) I_r, \quad
+    M_{12} = M_{21} = I_2 + m_2 l_1 r_2 c_2 - g_r I_r, \quad
+    M_{22} = I_2 + g_r^2 I_r,
+
+    C = m_2 l_1 r_2 s_2 \begin{pmatrix} -2\dot q_2 & -\dot q_2 \\ \dot q_1 & 0 \end{pmatrix},
+
+    G_1 = -g (m_1 r_1 + m_2 l_1) s_1 - g m_2 r_2 s_{12}, \quad G_2 = -g m_2 r_2 s_{12},
+
+    F_j = b_j \dot q_j + c_{f,j} \arctan(100\,\dot q_j).
+
+Derivation of the base parameters
+---------------------------------
+The kinetic energy is :math:`T = \tfrac12 \dot q^\top M(q) \dot q`; only :math:`M_{11}` and
+:math:`M_{12}` depend on :math:`q` (through :math:`q_2`), with
+:math:`\partial M_{11}/\partial q_2 = -2 m_2 l_1 r_2 s_2` and
+:math:`\partial M_{12}/\partial q_2 = -m_2 l_1 r_2 s_2`. The Christoffel symbols
+:math:`c_{ijk} = \tfrac12(\partial_k M_{ij} + \partial_j M_{ik} - \partial_i M_{jk})` give
+:math:`c_{112} = c_{121} = c_{122} = -m_2 l_1 r_2 s_2`, :math:`c_{211} = m_2 l_1 r_2 s_2` and
+zero otherwise, i.e. :math:`(C\dot q)_1 = -m_2 l_1 r_2 s_2 (2\dot q_1 \dot q_2 + \dot q_2^2)` and
+:math:`(C\dot q)_2 = m_2 l_1 r_2 s_2 \dot q_1^2`: exactly the lab's :math:`C\dot q` above. The
+potential energy :math:`U = -g (m_1 r_1 + m_2 l_1) \cos q_1 - g m_2 r_2 \cos(q_1 + q_2)` (heights
+measured upwards, :math:`q = 0` hanging down) has :math:`\partial U / \partial q = -G`, so the
+lab's :math:`-G` is the gravity term of Lagrange's equations
+:math:`\tfrac{d}{dt}\partial_{\dot q} T - \partial_q T + \partial_q U = \tau - F`.
+
+Expanding, the torques are linear in ten combinations of the physical parameters,
+:math:`\tau = D(q, \dot q, \ddot q)\,X`:
+
+.. math::
+
+    A_1 &= I_1 + I_2 + m_2 l_1^2 + (g_r^2 + 1) I_r \quad (\text{constant part of } M_{11}), \\
+    A_2 &= I_2 + g_r^2 I_r \quad (M_{22}), \qquad
+    A_3 = I_2 - g_r I_r \quad (\text{constant part of } M_{12}), \\
+    A_4 &= m_2 l_1 r_2, \qquad A_5 = g (m_1 r_1 + m_2 l_1), \qquad A_6 = g m_2 r_2,
+
+.. math::
+
+    \tau_1 &= A_1 \ddot q_1 + A_3 \ddot q_2
+        + A_4 \big(c_2 (2\ddot q_1 + \ddot q_2) - s_2 (2\dot q_1 \dot q_2 + \dot q_2^2)\big)
+        + A_5 s_1 + A_6 s_{12} + b_1 \dot q_1 + c_{f1} \arctan(\alpha \dot q_1), \\
+    \tau_2 &= A_3 \ddot q_1 + A_2 \ddot q_2 + A_4 (c_2 \ddot q_1 + s_2 \dot q_1^2)
+        + A_6 s_{12} + b_2 \dot q_2 + c_{f2} \arctan(\alpha \dot q_2),
+
+with :math:`X = [A_1, \dots, A_6, b_1, c_{f1}, b_2, c_{f2}]` (the order of
+:data:`PENDULUM_PARAMETER_NAMES`) and the lab's Coulomb slope :math:`\alpha = 100` s/rad. The ten
+columns of :math:`D` are linearly independent functions of the state (the regressor stacked over
+generic states has rank 10, see the tests), so no smaller set of combinations describes the
+torques: these are the base parameters. The physical parameters are not identifiable one by one:
+:math:`m_1` and :math:`r_1` only appear in :math:`A_5`, :math:`I_1` only in :math:`A_1`.
+
+Resampling
+----------
+The recorded time stamps are not uniform (nominal 2 ms, with jitter and gaps up to about 8 ms),
+while every differentiator of this benchmark assumes a uniform step. :func:`load_dfki_run`
+therefore resamples explicitly onto :math:`t_k = t_0 + k\,\Delta t` by linear interpolation
+(:func:`resample_uniform`); see there for the error it adds.
+
+References
+----------
+.. [1] F. Wiebe, S. Kumar, L. J. Shala, S. Vyas, M. Javadi, F. Kirchner, "Open Source
+   Dual-Purpose Acrobot and Pendubot Platform: Benchmarking Control Algorithms for
+   Underactuated Robotics", IEEE Robotics & Automation Magazine 31(2), 2024.
+.. [2] DFKI RIC Underactuated Lab, ``double_pendulum`` repository (commit 1e8544e),
+   ``data/experiment_records/design_C.0/20220914/sys_id`` and
+   ``data/system_identification/identified_parameters/design_C.0/model_3.0``.
+.. [3] W. Khalil, E. Dombre, "Modeling, Identification and Control of Robots", Hermes Penton,
+   2002, chapter 12 (base parameters).
+"""
+
+from __future__ import annotations
+
+import gzip
+import io
+import math
+import numbers
+from collections.abc import Mapping
+from dataclasses import dataclass
+from importlib.resources import files
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from signals._checks import check_real, check_samples, check_times, read_only
+
+if TYPE_CHECKING:  # Python >= 3.11; annotations only
+    from importlib.resources.abc import Traversable
+
+DFKI_RUNS = 6
+"""Number of recordings: runs ``0 .. DFKI_RUNS - 1``."""
+
+DEFAULT_DT_S = 0.002
+"""The recorder's nominal step (500 Hz)."""
+
+COULOMB_SLOPE = 100.0
+"""The lab's smooth Coulomb law: :math:`c_f \\arctan(100\\,\\dot q)` (``100`` in s/rad)."""
+
+PENDULUM_PARAMETER_NAMES = (
+    "A1_M11",
+    "A2_M22",
+    "A3_M12",
+    "A4_m2_l1_r2",
+    "A5_g_m1r1_m2l1",
+    "A6_g_m2_r2",
+    "b1",
+    "cf1",
+    "b2",
+    "cf2",
+)
+"""The 10 base parameters, in the order of the regressor's last axis.
+
+``A1_M11`` = I1 + I2 + m2 l1² + (gr² + 1) Ir [kg·m²], ``A2_M22`` = I2 + gr² Ir [kg·m²],
+``A3_M12`` = I2 − gr Ir [kg·m²], ``A4_m2_l1_r2`` = m2 l1 r2 [kg·m²],
+``A5_g_m1r1_m2l1`` = g (m1 r1 + m2 l1) [N·m], ``A6_g_m2_r2`` = g m2 r2 [N·m], ``b1``, ``b2``
+viscous [N·m·s/rad], ``cf1``, ``cf2`` Coulomb [N·m] (multiplying ``arctan(100 q̇)``).
+"""
+
+_PHYSICAL_NAMES = (
+    "I1",
+    "I2",
+    "Ir",
+    "gr",
+    "m1",
+    "m2",
+    "l1",
+    "r1",
+    "r2",
+    "g",
+    "b1",
+    "b2",
+    "cf1",
+    "cf2",
+)
+
+_DATA = ("data", "dfki_double_pendulum")
+
+# CSV columns read by the loader, in the order they are stacked before resampling.
+_COLUMNS = (
+    "pos_meas1",
+    "pos_meas2",
+    "tau_meas1",
+    "tau_meas2",
+    "tau_con1",
+    "tau_con2",
+    "vel_meas1",
+    "vel_meas2",
+)
+
+
+def _data_file(name: str) -> Traversable:
+    """The packaged data file ``name`` (works from a source tree, a wheel or a zip)."""
+    folder = files("signals")
+    for part in _DATA:
+        folder = folder / part
+    return folder / name
+
+
+@dataclass(frozen=True, eq=False)
+class DfkiRun:
+    """One DFKI double-pendulum recording, resampled onto a uniform time grid.
+
+    Parameters
+    ----------
+    run : int
+        Recording number, ``0 .. DFKI_RUNS - 1`` (file ``trajectory_0{run}.csv``).
+    t : numpy.ndarray, shape (n,)
+        Uniform sample times :math:`t_k = t_0 + k\\,\\Delta t` in seconds (:math:`t_0 = 0`).
+    dt_s : float
+        The uniform step :math:`\\Delta t` in seconds.
+    q : numpy.ndarray, shape (n, 2)
+        Joint positions in rad (encoder, about 3.8e-4 rad resolution); ``q[:, 0]`` from the
+        downward vertical, ``q[:, 1]`` relative to link 1.
+    tau : numpy.ndarray, shape (n, 2)
+        Measured joint torques in N·m (the driver's current-based estimate).
+    tau_commanded : numpy.ndarray, shape (n, 2)
+        Commanded joint torques in N·m.
+    velocity_driver : numpy.ndarray, shape (n, 2)
+        The motor driver's own velocity estimate in rad/s (column ``vel_meas``).
+    max_gap_s : float
+        Largest step between consecutive recorded time stamps, in seconds.
+    original_samples : int
+        Number of distinct recorded time stamps (rows of the CSV file, exact duplicate time
+        stamps counted once).
+
+    Notes
+    -----
+    The arrays are stored as read-only float64 copies; every array has ``n`` samples on axis 0.
+    """
+
+    run: int
+    t: np.ndarray
+    dt_s: float
+    q: np.ndarray
+    tau: np.ndarray
+    tau_commanded: np.ndarray
+    velocity_driver: np.ndarray
+    max_gap_s: float
+    original_samples: int
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "run", _check_run(self.run))
+        object.__setattr__(self, "dt_s", check_real("dt_s", self.dt_s, gt=0.0))
+        t = read_only(check_times(self.t))
+        object.__setattr__(self, "t", t)
+        for name in ("q", "tau", "tau_commanded", "velocity_driver"):
+            array = check_samples(getattr(self, name), t.size, name)
+            if array.shape != (t.size, 2):
+                raise ValueError(f"`{name}` must have shape ({t.size}, 2), got {array.shape}")
+            object.__setattr__(self, name, read_only(array))
+        object.__setattr__(self, "max_gap_s", check_real("max_gap_s", self.max_gap_s, gt=0.0))
+        samples = self.original_samples
+        if isinstance(samples, (bool, np.bool_)) or not isinstance(samples, numbers.Integral):
+            raise ValueError(f"`original_samples` must be an integer, got {samples!r}")
+        if samples < 2:
+            raise ValueError(f"`original_samples` must be >= 2, got {samples!r}")
+        object.__setattr__(self, "original_samples", int(samples))
+
+
+def _check_run(run: object) -> int:
+    if (
+        isinstance(run, (bool, np.bool_))
+        or not isinstance(run, numbers.Integral)
+        or not 0 <= run < DFKI_RUNS
+    ):
+        raise ValueError(f"`run` must be an integer in 0..{DFKI_RUNS - 1}, got {run!r}")
+    return int(run)
+
+
+def resample_uniform(t: np.ndarray, x: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Resample irregularly timed samples onto a uniform grid by linear interpolation.
+
+    Rows whose time stamp exactly repeats the previous one are dropped (the first is kept);
+    the remaining times must then be strictly increasing. The grid is
+
+    .. math::
+
+        t_k = t_0 + k\\,\\Delta t, \\qquad k = 0, \\dots, \\lfloor (t_{end} - t_0)/\\Delta t
+        \\rfloor,
+
+    covering :math:`[t_0, t_{end}]` without extrapolating, and every channel is interpolated
+    linearly between the two recorded samples around each :math:`t_k` (``numpy.interp``); a
+    grid point that coincides with a recorded time gets the recorded value exactly.
+
+    Why and how large the error is: every differentiator here assumes a uniform step, so the
+    resampling is explicit and done once. On a recorded interval of length :math:`h` the linear
+    interpolant of a :math:`C^2` signal errs by at most
+
+    .. math::
+
+        |x(t) - \\hat x(t)| \\le \\frac{h^2}{8} \\max |\\ddot x|,
+
+    e.g. :math:`h` = 8 ms and :math:`|\\ddot q|` = 50 rad/s² give 4e-4 rad, the size of the
+    encoder's resolution; on the nominal 2 ms steps it is 16 times smaller. Away from the gaps
+    the interpolation is a small sub-sample time shift; its kinks at the recorded times are
+    high-frequency content a differentiator must smooth anyway.
+
+    Parameters
+    ----------
+    t : array_like, shape (m,)
+        Recorded times in seconds, finite, non-decreasing, at least two distinct values.
+    x : array_like, shape (m, ...)
+        Recorded samples, time on axis 0, any further axes are channels; finite.
+    dt_s : float
+        Uniform step in seconds, > 0 and at most :math:`t_{end} - t_0`.
+
+    Returns
+    -------
+    t_uniform : numpy.ndarray, shape (n,)
+        The grid :math:`t_k`.
+    x_uniform : numpy.ndarray, shape (n, ...)
+        The interpolated samples.
+
+    Raises
+    ------
+    ValueError
+        If ``t`` is not finite and strictly increasing once exact duplicates are dropped, if
+        ``x`` does not have the samples of ``t`` on axis 0 or is not finite, or if ``dt_s`` is
+        not a finite number in :math:`(0, t_{end} - t_0]`.
+
+    Examples
+    --------
+    >>> t_u, x_u = resample_uniform([0.0, 0.3, 0.4, 1.0], [0.0, 3.0, 4.0, 10.0], dt_s=0.25)
+    >>> t_u.tolist(), x_u.tolist()
+    ([0.0, 0.25, 0.5, 0.75, 1.0], [0.0, 2.5, 5.0, 7.5, 10.0])
+    """
+    times = check_times(t)
+    values = check_samples(x, times.size, "x")
+    step = check_real("dt_s", dt_s, gt=0.0)
+    keep = np.ones(times.size, dtype=bool)
+    keep[1:] = np.diff(times) != 0.0
+    times, values = times[keep], values[keep]
+    steps = np.diff(times)
+    if times.size < 2 or not np.all(steps > 0.0):
+        bad = np.flatnonzero(steps <= 0.0)
+        where = f" (first at index {int(bad[0]) + 1})" if bad.size else ""
+        raise ValueError(
+            "`t` must be strictly increasing after dropping exact duplicate time stamps, "
+            f"with at least two distinct values{where}"
+        )
+    span = times[-1] - times[0]
+    if step > span:
+        raise ValueError(f"`dt_s` must be <= the recording's length {span!r} s, got {step!r}")
+    count = math.floor(span / step) + 1
+    grid = times[0] + np.arange(count) * step
+    if grid[-1] > times[-1]:  # rounding in floor(span / step)
+        grid = grid[:-1]
+    flat = values.reshape(times.size, -1)
+    out = np.empty((grid.size, flat.shape[1]))
+    for channel in range(flat.shape[1]):
+        out[:, channel] = np.interp(grid, times, flat[:, channel])
+    return grid, out.reshape((grid.size, *values.shape[1:]))
+
+
+def _read_csv(run: int) -> tuple[np.ndarray, np.ndarray]:
+    """Recorded time and the :data:`_COLUMNS` (as an (m, 8) array) of run ``run``."""
+    with _data_file(f"trajectory_0{run}.csv.gz").open("rb") as raw, gzip.open(raw, "rt") as fh:
+        text = fh.read()
+    header, _, body = text.partition("\n")
+    names = [name.strip() for name in header.split(",")]
+    missing = [name for name in ("time", *_COLUMNS) if name not in names]
+    if missing:
+        raise ValueError(f"run {run}: the CSV file lacks the columns {missing}")
+    table = np.loadtxt(io.StringIO(body), delimiter=",", dtype=np.float64, ndmin=2)
+    columns = [names.index(name) for name in _COLUMNS]
+    return table[:, names.index("time")], table[:, columns]
+
+
+def load_dfki_run(run: int, dt_s: float = DEFAULT_DT_S) -> DfkiRun:
+    """Load one DFKI double-pendulum recording, resampled onto a uniform grid.
+
+    The recorded time stamps are not uniform (nominal 2 ms, jitter, gaps up to about 8 ms), so
+    positions, measured and commanded torques and the driver's velocity are resampled onto
+    :math:`t_k = t_0 + k\\,\\Delta t` covering the recording by linear interpolation
+    (:func:`resample_uniform`, which states the error this adds: at most
+    :math:`h^2 \\max|\\ddot q|/8` on a recorded step :math:`h`). ``max_gap_s`` tells how large
+    :math:`h` gets.
+
+    Parameters
+    ----------
+    run : int
+        Recording number, ``0 .. DFKI_RUNS - 1``.
+    dt_s : float, default 0.002
+        Uniform step in seconds, finite and > 0 (the recorder's nominal step by default).
+
+    Returns
+    -------
+    DfkiRun
+        The resampled run (about 10 s: 5000 samples at the default step).
+
+    Raises
+    ------
+    ValueError
+        If ``run`` is not an integer in ``0 .. DFKI_RUNS - 1``, if ``dt_s`` is not a finite
+        number > 0 (and at most the recording's length), or if the recorded time is not
+        strictly increasing once exact duplicate time stamps are dropped.
+
+    Examples
+    --------
+    >>> data = load_dfki_run(0)
+    >>> data.q.shape, data.dt_s, round(float(data.t[-1]), 3)
+    ((5000, 2), 0.002, 9.998)
+    """
+    run = _check_run(run)
+    step = check_real("dt_s", dt_s, gt=0.0)
+    time, columns = _read_csv(run)
+    grid, values = resample_uniform(time, columns, step)
+    distinct = np.unique(time)
+    return DfkiRun(
+        run=run,
+        t=grid,
+        dt_s=step,
+        q=values[:, 0:2],
+        tau=values[:, 2:4],
+        tau_commanded=values[:, 4:6],
+        velocity_driver=values[:, 6:8],
+        max_gap_s=float(np.max(np.diff(distinct))),
+        original_samples=int(distinct.size),
+    )
+
+
+def lab_parameters() -> dict[str, float]:
+    """The lab's identified physical parameters (``model_parameters.yml``) as floats.
+
+    Keys: ``m1, m2`` [kg]; ``l1, l2`` link lengths and ``r1, r2`` centre-of-mass distances [m];
+    ``I1, I2`` inertias about the joint axes and ``Ir`` rotor inertia [kg·m²]; ``gr`` gear
+    ratio; ``b1, b2`` viscous [N·m·s/rad] and ``cf1, cf2`` Coulomb [N·m] friction; ``g``
+    [m/s²]; ``tl1, tl2`` torque limits [N·m]. A fresh dict on every call.
+
+    Raises
+    ------
+    ValueError
+        If a line of the file is not ``key: number`` (the packaged file always is).
+
+    Examples
+    --------
+    >>> lab_parameters()["gr"], lab_parameters()["g"]
+    (6.0, 9.81)
+    """
+    text = _data_file("model_parameters.yml").read_text(encoding="utf-8")
+    parameters: dict[str, float] = {}
+    for number, line in enumerate(text.splitlines(), start=1):
+        content = line.split("#", 1)[0].strip()
+        if not content:
+            continue
+        key, sep, value = content.partition(":")
+        try:
+            if not sep or not key.strip():
+                raise ValueError
+            parameters[key.strip()] = float(value)
+        except ValueError:
+            raise ValueError(
+                f"model_parameters.yml line {number} is not `key: number`: {line!r}"
+            ) from None
+    return parameters
+
+
+def base_parameters(parameters: Mapping[str, float]) -> np.ndarray:
+    """The 10 base parameters :math:`X` of a set of physical parameters.
+
+    .. math::
+
+        X = [I_1 + I_2 + m_2 l_1^2 + (g_r^2 + 1) I_r,\\ I_2 + g_r^2 I_r,\\ I_2 - g_r I_r,\\
+        m_2 l_1 r_2,\\ g (m_1 r_1 + m_2 l_1),\\ g m_2 r_2,\\ b_1, c_{f1}, b_2, c_{f2}]
+
+    Parameters
+    ----------
+    parameters : mapping of str to float
+        At least the keys ``I1 I2 Ir gr m1 m2 l1 r1 r2 g b1 b2 cf1 cf2`` (as
+        :func:`lab_parameters`), finite numbers.
+
+    Returns
+    -------
+    numpy.ndarray, shape (10,)
+        In the order of :data:`PENDULUM_PARAMETER_NAMES`.
+
+    Raises
+    ------
+    ValueError
+        If ``parameters`` lacks a key or holds a non-finite value.
+    """
+    if not isinstance(parameters, Mapping):
+        raise ValueError(f"`parameters` must be a mapping of names to numbers, got {parameters!r}")
+    missing = [name for name in _PHYSICAL_NAMES if name not in parameters]
+    if missing:
+        raise ValueError(f"`parameters` lacks the keys {missing}")
+    p = {name: check_real(f"parameters[{name!r}]", parameters[name]) for name in _PHYSICAL_NAMES}
+    return np.array(
+        [
+            p["I1"] + p["I2"] + p["m2"] * p["l1"] ** 2 + (p["gr"] ** 2 + 1.0) * p["Ir"],
+            p["I2"] + p["gr"] ** 2 * p["Ir"],
+            p["I2"] - p["gr"] * p["Ir"],
+            p["m2"] * p["l1"] * p["r2"],
+            p["g"] * (p["m1"] * p["r1"] + p["m2"] * p["l1"]),
+            p["g"] * p["m2"] * p["r2"],
+            p["b1"],
+            p["cf1"],
+            p["b2"],
+            p["cf2"],
+        ]
+    )
+
+
+def lab_base_parameters() -> np.ndarray:
+    """The base parameters of the lab's identified model: ``base_parameters(lab_parameters())``.
+
+    Returns
+    -------
+    numpy.ndarray, shape (10,)
+        In the order of :data:`PENDULUM_PARAMETER_NAMES`.
+    """
+    return base_parameters(lab_parameters())
+
+
+def _check_states(q: object, qd: object, qdd: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``q, qd, qdd`` as float64 arrays of one shape (n, 2), n >= 1, all finite."""
+    arrays = []
+    for name, value in (("q", q), ("qd", qd), ("qdd", qdd)):
+        try:
+            array = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"`{name}` must be an array of real numbers, got {value!r}") from None
+        if array.ndim != 2 or array.shape[1] != 2 or array.shape[0] == 0:
+            raise ValueError(f"`{name}` must have shape (n, 2) with n >= 1, got {array.shape}")
+        if not np.all(np.isfinite(array)):
+            bad = int(np.count_nonzero(~np.isfinite(array)))
+            raise ValueError(f"`{name}` holds {bad} NaN or inf values")
+        if arrays and array.shape[0] != arrays[0].shape[0]:
+            raise ValueError(
+                f"`{name}` must have the {arrays[0].shape[0]} samples of `q`, got {array.shape[0]}"
+            )
+        arrays.append(array)
+    return arrays[0], arrays[1], arrays[2]
+
+
+def pendulum_regressor(
+    q: np.ndarray,
+    qd: np.ndarray,
+    qdd: np.ndarray,
+    coulomb_slope: float = COULOMB_SLOPE,
+) -> np.ndarray:
+    """The base-parameter regressor :math:`D(q, \\dot q, \\ddot q)`: ``tau = D @ X``.
+
+    Rows (joints 1 and 2) of each sample, columns in the order of
+    :data:`PENDULUM_PARAMETER_NAMES` (derivation in the module docstring):
+
+    .. math::
+
+        D_1 &= [\\ddot q_1,\\ 0,\\ \\ddot q_2,\\
+              c_2 (2\\ddot q_1 + \\ddot q_2) - s_2 (2\\dot q_1 \\dot q_2 + \\dot q_2^2),\\
+              s_1,\\ s_{12},\\ \\dot q_1,\\ \\arctan(\\alpha \\dot q_1),\\ 0,\\ 0], \\\\
+        D_2 &= [0,\\ \\ddot q_2,\\ \\ddot q_1,\\ c_2 \\ddot q_1 + s_2 \\dot q_1^2,\\ 0,\\ s_{12},\\
+              0,\\ 0,\\ \\dot q_2,\\ \\arctan(\\alpha \\dot q_2)].
+
+    Parameters
+    ----------
+    q, qd, qdd : array_like, shape (n, 2)
+        Joint positions [rad], velocities [rad/s] and accelerations [rad/s²], finite, with the
+        same number ``n >= 1`` of samples.
+    coulomb_slope : float, default 100.0
+        :math:`\\alpha` in s/rad, finite and > 0 (the lab uses 100).
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, 2, 10)
+        ``D[k, j, i]``: sample ``k``, joint ``j``, base parameter ``i``.
+
+    Raises
+    ------
+    ValueError
+        If an array is not of shape (n, 2), not finite or of another length than ``q`` (the
+        message names it), or if ``coulomb_slope`` is not a finite number > 0.
+
+    Examples
+    --------
+    At rest with link 1 horizontal (:math:`q_1 = \\pi/2`, :math:`q_2 = 0`) only the two gravity
+    columns are non-zero, and both are 1 for joint 1:
+
+    >>> D = pendulum_regressor([[np.pi / 2, 0.0]], [[0.0, 0.0]], [[0.0, 0.0]])
+    >>> np.round(D[0], 12).tolist()[0]
+    [0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0]
+    """
+    q, qd, qdd = _check_states(q, qd, qdd)
+    slope = check_real("coulomb_slope", coulomb_slope, gt=0.0)
+    c2, s2 = np.cos(q[:, 1]), np.sin(q[:, 1])
+    s1, s12 = np.sin(q[:, 0]), np.sin(q[:, 0] + q[:, 1])
+    qd1, qd2 = qd[:, 0], qd[:, 1]
+    qdd1, qdd2 = qdd[:, 0], qdd[:, 1]
+    D = np.zeros((q.shape[0], 2, len(PENDULUM_PARAMETER_NAMES)))
+    D[:, 0, 0] = qdd1
+    D[:, 0, 2] = qdd2
+    D[:, 0, 3] = c2 * (2.0 * qdd1 + qdd2) - s2 * (2.0 * qd1 * qd2 + qd2**2)
+    D[:, 0, 4] = s1
+    D[:, 0, 5] = s12
+    D[:, 0, 6] = qd1
+    D[:, 0, 7] = np.arctan(slope * qd1)
+    D[:, 1, 1] = qdd2
+    D[:, 1, 2] = qdd1
+    D[:, 1, 3] = c2 * qdd1 + s2 * qd1**2
+    D[:, 1, 5] = s12
+    D[:, 1, 8] = qd2
+    D[:, 1, 9] = np.arctan(slope * qd2)
+    return D
+
+
+def lab_model_torques(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+    """Joint torques of the lab's model, :math:`\\tau = M\\ddot q + C\\dot q - G + F`.
+
+    Computed directly from the lab's :math:`M, C, G, F` (module docstring) with
+    :func:`lab_parameters`, independently of :func:`pendulum_regressor`.
+
+    Parameters
+    ----------
+    q, qd, qdd : array_like, shape (n, 2)
+        Joint positions [rad], velocities [rad/s] and accelerations [rad/s²], finite, with the
+        same number ``n >= 1`` of samples.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, 2)
+        Torques in N·m.
+
+    Raises
+    ------
+    ValueError
+        If an array is not of shape (n, 2), not finite or of another length than ``q``.
+
+    Examples
+    --------
+    Hanging still, no torque is needed:
+
+    >>> lab_model_torques(np.zeros((1, 2)), np.zeros((1, 2)), np.zeros((1, 2))).tolist()
+    [[0.0, 0.0]]
+    """
+    q, qd, qdd = _check_states(q, qd, qdd)
+    p = lab_parameters()
+    m1, m2, l1, r1, r2 = p["m1"], p["m2"], p["l1"], p["r1"], p["r2"]
+    I1, I2, Ir, gr, g = p["I1"], p["I2"], p["Ir"], p["gr"], p["g"]
+    c2, s2 = np.cos(q[:, 1]), np.sin(q[:, 1])
+    s1, s12 = np.sin(q[:, 0]), np.sin(q[:, 0] + q[:, 1])
+    n = q.shape[0]
+
+    M = np.empty((n, 2, 2))
+    M[:, 0, 0] = I1 + I2 + m2 * l1**2 + 2.0 * m2 * l1 * r2 * c2 + gr**2 * Ir + Ir
+    M[:, 0, 1] = I2 + m2 * l1 * r2 * c2 - gr * Ir
+    M[:, 1, 0] = M[:, 0, 1]
+    M[:, 1, 1] = I2 + gr**2 * Ir
+
+    h = m2 * l1 * r2 * s2
+    C = np.empty((n, 2, 2))
+    C[:, 0, 0] = -2.0 * h * qd[:, 1]
+    C[:, 0, 1] = -h * qd[:, 1]
+    C[:, 1, 0] = h * qd[:, 0]
+    C[:, 1, 1] = 0.0
+
+    G = np.empty((n, 2))
+    G[:, 0] = -m1 * g * r1 * s1 - m2 * g * (l1 * s1 + r2 * s12)
+    G[:, 1] = -m2 * g * r2 * s12
+
+    b = np.array([p["b1"], p["b2"]])
+    cf = np.array([p["cf1"], p["cf2"]])
+    F = b * qd + cf * np.arctan(COULOMB_SLOPE * qd)
+
+    return np.einsum("nij,nj->ni", M, qdd) + np.einsum("nij,nj->ni", C, qd) - G + F
