@@ -18,6 +18,8 @@ $(STAMP): pyproject.toml
 bench: $(STAMP)
 	$(BIN)/diffbench run paper-signal --seeds $(SEEDS) --out results
 	$(BIN)/diffbench paper-figures --seeds $(SEEDS) --out results
+	$(BIN)/diffbench identify sim --seeds $(SEEDS) --out results
+	$(BIN)/diffbench identify dfki --out results
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

@@ -62,9 +62,13 @@ def find_scenario(name: str):
     """A signal scenario or a robot scenario by name; an unknown name lists both kinds."""
     if name in robot2r.available_robot_scenarios():
         return robot2r.get_robot_scenario(name)
+    if name == "dfki-cv":
+        from bench.robot import DfkiCrossValidation
+
+        return DfkiCrossValidation()
     if name in signals.available_scenarios():
         return signals.get_scenario(name)
-    known = signals.available_scenarios() + robot2r.available_robot_scenarios()
+    known = signals.available_scenarios() + robot2r.available_robot_scenarios() + ["dfki-cv"]
     raise ValueError(f"unknown scenario {name!r}; available: {', '.join(sorted(known))}")
 
 
@@ -81,6 +85,10 @@ def compute_cell(cell: Cell) -> list[dict[str, Any]]:
         from bench.robot import score_identification
 
         return score_identification(method, scenario, cell.seed)
+    if scenario.name == "dfki-cv":
+        from bench.robot import score_dfki_fold
+
+        return score_dfki_fold(method, scenario, cell.seed)
     realisation = scenario.realise(cell.seed)
     estimate = method(realisation.x, realisation.dt_s)
     rows = score_estimate(estimate, realisation.truth, realisation.interior)

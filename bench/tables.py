@@ -184,3 +184,13 @@ def identification_markdown(table: pd.DataFrame, title: str, notes: str) -> str:
             cells.append(text)
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join([*lines, "", notes, ""])
+
+
+DFKI_SUMMARY = [
+    ("τ RMSE joint 1 (N·m)", "torque_rmse.joint1", 0, "identification"),
+    ("lab τ RMSE joint 1", "lab_torque_rmse.joint1", 0, "identification"),
+    ("τ RMSE joint 2 (N·m)", "torque_rmse.joint2", 0, "identification"),
+    ("lab τ RMSE joint 2", "lab_torque_rmse.joint2", 0, "identification"),
+    ("q̇ vs driver (rad/s)", "velocity_rmse_vs_driver", 1, "identification"),
+    ("cond(W)", "cond_W", 0, "identification"),
+]

@@ -118,3 +118,38 @@ def test_identify_cli_writes_the_tables_and_rejects_an_unknown_method(tmp_path, 
     bad = ["identify", "sim", "--scenario", "robot-sim-short", "--methods", "jacobbi"]
     assert main(bad) == 2
     assert "unknown method 'jacobbi'" in capsys.readouterr().err
+
+
+def test_dfki_leave_one_run_out_predicts_measured_torque(tmp_path):
+    """Real data: the model identified on five runs predicts the sixth run's measured torque
+    about as well as the lab's published model (both well below the torque's own RMS)."""
+    from bench.robot import DfkiCrossValidation, score_dfki_fold
+
+    method, _ = methods.preset("savitzky_golay", "robot")
+    rows = {r["metric"]: r["value"] for r in score_dfki_fold(method, DfkiCrossValidation(), 2)}
+    for joint in (1, 2):
+        ours, lab = rows[f"torque_rmse.joint{joint}"], rows[f"lab_torque_rmse.joint{joint}"]
+        assert ours < 0.25 and lab < 0.3
+        assert ours < 1.5 * lab
+    assert rows["velocity_rmse_vs_driver"] < 0.5
+    assert rows["cond_W"] < 2000
+    with pytest.raises(ValueError, match=r"held-out run \(seed\) must be in 0..5, got 6"):
+        score_dfki_fold(method, DfkiCrossValidation(), 6)
+
+
+def test_dfki_passive_joints_are_not_scored():
+    from bench.robot import DfkiCrossValidation, score_dfki_fold
+
+    method = methods.get("finite_difference")
+    metrics = {r["metric"] for r in score_dfki_fold(method, DfkiCrossValidation(), 3)}
+    assert "torque_rmse.joint2" in metrics and "torque_rmse.joint1" not in metrics
+
+
+def test_identify_dfki_cli(tmp_path):
+    args = ["identify", "dfki", "--out", str(tmp_path), "--methods", "finite_difference",
+            "--no-progress"]  # fmt: skip
+    assert main(args) == 0
+    summary = (tmp_path / "identify-dfki" / "summary.md").read_text()
+    assert "| finite_difference |" in summary and "lab τ RMSE joint 1" in summary
+    table = (tmp_path / "identify-dfki" / "table2.md").read_text()
+    assert "A5_g_m1r1_m2l1" in table
