@@ -430,3 +430,9 @@ register_robot_scenario(RobotScenario(
     description="robot-sim on 12 s of motion: a quick version for tests.",
     duration_s=12.0,
 ))  # fmt: skip
+register_robot_scenario(RobotScenario(
+    name="robot-sim-200hz",
+    description="robot-sim measured at 200 Hz instead of 100 Hz.",
+    duration_s=30.0,
+    sample_dt_s=0.005,
+))  # fmt: skip

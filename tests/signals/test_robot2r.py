@@ -21,28 +21,36 @@ def _kinetic_energy(q, qd, parameters):
 
 
 def _lagrangian_torque(q, qd, qdd, parameters, slope):
-    """τ = d/dt ∂E/∂q̇ − ∂E/∂q + friction with every derivative by complex step (h = 1e-30):
-    ∂E/∂q̇_i, then its time derivative along (q̇, q̈) as directional complex steps."""
-    h = 1e-30
+    """τ = d/dt ∂E/∂q̇ − ∂E/∂q + friction, from the energy alone: ∂E/∂q̇ by a central
+    difference in q̇ (exact up to rounding, E being quadratic in q̇), its q-derivatives and
+    ∂E/∂q by complex steps (exact to rounding)."""
+    h, delta = 1e-30, 1.0  # E is quadratic in q̇: any step is exact; a large one rounds least
+    unit = np.eye(2)
 
-    def grad_qd(qq, vv):
-        return np.array([np.imag(_kinetic_energy(qq, vv + 1j * h * np.eye(2)[i], parameters)) / h
+    def momentum(qq):  # p_i = ∂E/∂q̇_i at (qq, qd); qq may be complex
+        return np.array([(_kinetic_energy(qq, qd + delta * unit[i], parameters)
+                          - _kinetic_energy(qq, qd - delta * unit[i], parameters)) / (2 * delta)
                          for i in range(2)])  # fmt: skip
 
-    def grad_q(qq, vv):
-        return np.array([np.imag(_kinetic_energy(qq + 1j * h * np.eye(2)[i], vv, parameters)) / h
-                         for i in range(2)])  # fmt: skip
-
-    # d/dt p(q, q̇) = ∂p/∂q q̇ + ∂p/∂q̇ q̈ ; with p linear in q̇ and E quadratic: central
-    # differences of tiny step are exact up to rounding for the q̇ part; use complex step on q.
-    step = 1e-6
-    momentum_rate = (grad_qd(q + step * qd, qd + step * qdd)
-                     - grad_qd(q - step * qd, qd - step * qdd)) / (2 * step)  # fmt: skip
+    # d/dt p = Σ_k ∂p/∂q_k q̇_k + ∂p/∂q̇ q̈, with ∂p/∂q̇ = M(q) = Hessian of E in q̇
+    dp_dq = np.array([np.imag(momentum(q + 1j * h * unit[k])) / h for k in range(2)]).T
+    hessian = np.array([(momentum_at_velocity(q, qd + delta * unit[j], parameters)
+                         - momentum_at_velocity(q, qd - delta * unit[j], parameters))
+                        / (2 * delta) for j in range(2)]).T  # fmt: skip
+    de_dq = np.array([np.imag(_kinetic_energy(q + 1j * h * unit[k], qd, parameters)) / h
+                      for k in range(2)])  # fmt: skip
     friction = np.array([parameters[4] * qd[0] + parameters[5] * 2 / math.pi
                          * math.atan(slope * qd[0]),
                          parameters[6] * qd[1] + parameters[7] * 2 / math.pi
                          * math.atan(slope * qd[1])])  # fmt: skip
-    return momentum_rate - grad_q(q, qd) + friction
+    return dp_dq @ qd + hessian @ qdd - de_dq + friction
+
+
+def momentum_at_velocity(q, velocity, parameters, delta=1.0):
+    unit = np.eye(2)
+    return np.array([(_kinetic_energy(q, velocity + delta * unit[i], parameters)
+                      - _kinetic_energy(q, velocity - delta * unit[i], parameters)) / (2 * delta)
+                     for i in range(2)])  # fmt: skip
 
 
 def test_regressor_times_parameters_equals_an_independent_lagrangian():
@@ -54,7 +62,7 @@ def test_regressor_times_parameters_equals_an_independent_lagrangian():
         torques = robot2r.regressor(q, qd, qdd) @ parameters
         for k in range(20):
             reference = _lagrangian_torque(q[k], qd[k], qdd[k], parameters, robot2r.COULOMB_SLOPE)
-            np.testing.assert_allclose(torques[k], reference, rtol=1e-8, atol=1e-8)
+            np.testing.assert_allclose(torques[k], reference, rtol=1e-10, atol=1e-10)
 
 
 def test_mass_matrix_is_symmetric_positive_definite_and_matches_the_energy():
