@@ -112,10 +112,16 @@ def _cmd_list() -> None:
     print("signals")
     for name in signals.available_signals():
         print(f"  {name}: {signals.get_signal(name)!r}")
-    print("scenarios")
+    print("scenarios (diffbench run)")
     for name in signals.available_scenarios():
         scenario = signals.get_scenario(name)
         print(f"  {name}: {scenario.description}")
+    print("robot scenarios (diffbench identify sim --scenario NAME)")
+    for name in signals.robot2r.available_robot_scenarios():
+        print(f"  {name}: {signals.robot2r.get_robot_scenario(name).description}")
+    from bench.robot import DfkiCrossValidation
+
+    print(f"real robot (diffbench identify dfki)\n  {DfkiCrossValidation().description}")
 
 
 def _scenario_dir(out: Path, scenario: str) -> Path:
