@@ -57,6 +57,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--methods", default=None, help="comma-separated method names (default: all registered)"
     )
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
+    run.add_argument(
+        "--jobs",
+        type=_positive_int,
+        default=1,
+        help="local processes (results identical to a serial run)",
+    )
 
     figures = commands.add_parser(
         "paper-figures",
@@ -69,6 +75,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--seeds", type=_positive_int, default=10, help="noise seeds for table I (default 10)"
     )
     figures.add_argument("--no-progress", action="store_true", help="no progress bar")
+    figures.add_argument("--jobs", type=_positive_int, default=1, help="local processes")
 
     identify = commands.add_parser(
         "identify", help="identify the 2R robot's base parameters with every method (IDIM-LS)"
@@ -85,6 +92,7 @@ def build_parser() -> argparse.ArgumentParser:
     identify.add_argument("--out", type=Path, default=Path("results"))
     identify.add_argument("--methods", default=None, help="comma-separated method names")
     identify.add_argument("--no-progress", action="store_true", help="no progress bar")
+    identify.add_argument("--jobs", type=_positive_int, default=1, help="local processes")
 
     table = commands.add_parser("table", help="render the tables of a stored run again")
     table.add_argument("scenario")
@@ -152,7 +160,7 @@ def _cmd_run(args: argparse.Namespace) -> None:
     cells = runner.preset_cells(args.scenario, range(args.seeds), names)
     directory = _scenario_dir(args.out, args.scenario)
     store = ResultStore(directory / "cells.csv")
-    summary = _run_cells(cells, store, not args.no_progress)
+    summary = _run_cells(cells, store, args)
     written = _render(store, directory, args.scenario)
     print(
         f"{summary.computed} cells computed, {summary.skipped} already stored; "
@@ -177,22 +185,22 @@ def _cmd_paper_figures(args: argparse.Namespace) -> None:
     written += paper.write_figure3(directory) + paper.write_frequency_table(directory)
     influence = args.out / "jacobi-influence"
     store = ResultStore(influence / "cells.csv")
-    _run_cells(paper.influence_cells(range(args.seeds)), store, not args.no_progress)
+    _run_cells(paper.influence_cells(range(args.seeds)), store, args)
     written += tables.write_table(
         tables.wide_table(store.load(), tables.DECOMPOSITION_COLUMNS),
         influence,
         "table1",
         "Table I of the paper, measured: bias and noise parts of the Jacobi error on "
-        "`paper-signal` as κ = μ, q and T move from the preset (interior RMS, mean ± std)",
+        "`paper-signal` as κ = μ, q and T move from the preset (interior RMS, mean ± 95 % CI)",
         "Preset κ = μ = 12, q = 6, T = 0.21 s (trapezoid rule); one parameter changed per row.",
     )
     for path in written:
         print(path)
 
 
-def _run_cells(cells, store: ResultStore, progress: bool) -> runner.RunSummary:
+def _run_cells(cells, store: ResultStore, args: argparse.Namespace) -> runner.RunSummary:
     try:
-        return runner.run(cells, store, progress=_progress(progress))
+        return runner.run(cells, store, progress=_progress(not args.no_progress), jobs=args.jobs)
     except KeyboardInterrupt:
         stored = len(store.completed_keys())
         print(
@@ -216,7 +224,7 @@ def _cmd_identify(args: argparse.Namespace) -> None:
     cells = runner.preset_cells(args.scenario, range(args.seeds), names)
     directory = args.out / f"identify-{args.scenario}"
     store = ResultStore(directory / "cells.csv")
-    summary = _run_cells(cells, store, not args.no_progress)
+    summary = _run_cells(cells, store, args)
     rows = store.load()
     table = tables.identification_table(rows, robot2r.PARAMETER_NAMES, scenario.true_parameters)
     directory.mkdir(parents=True, exist_ok=True)
@@ -235,7 +243,7 @@ def _cmd_identify(args: argparse.Namespace) -> None:
     written += tables.write_table(
         tables.wide_table(rows, tables.IDENTIFICATION_SUMMARY), directory, "summary",
         f"Identification on `{args.scenario}`: parameter error, torque prediction on a fresh "
-        "trajectory, derivative errors (mean ± std over seeds)",
+        "trajectory, derivative errors (mean ± 95 % CI of the mean over seeds)",
         "‖X̂−X‖/‖X‖ over the parameters identified to < 10 % relative σ with exact derivatives "
         f"({excited}).",
     )  # fmt: skip
@@ -251,12 +259,12 @@ def _identify_dfki(args: argparse.Namespace, names) -> None:
     cells = runner.preset_cells("dfki-cv", range(dfki.DFKI_RUNS), names)
     directory = args.out / "identify-dfki"
     store = ResultStore(directory / "cells.csv")
-    summary = _run_cells(cells, store, not args.no_progress)
+    summary = _run_cells(cells, store, args)
     rows = store.load()
     written = tables.write_table(
         tables.wide_table(rows, tables.DFKI_SUMMARY), directory, "summary",
         "DFKI double pendulum: measured-torque prediction on the held-out run after "
-        "identification on the other five (mean ± std over the 6 folds)",
+        "identification on the other five (mean ± 95 % CI over the 6 folds)",
         "τ RMSE: identified model vs measured torque, both decimated alike (F_p = 5 Hz), on "
         "the actuated joints of the held-out run; lab: the lab's published model with the same "
         "derivatives; q̇ vs driver: RMSE against the motor driver's own velocity estimate.",

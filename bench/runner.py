@@ -116,43 +116,71 @@ class RunSummary:
     computed: int
 
 
+def _ignore_interrupts() -> None:
+    # Ctrl-C reaches the whole process group: let the parent handle it, quietly.
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _timed(cell: Cell) -> tuple[list[dict[str, Any]], float]:
+    start = time.perf_counter()
+    scores = compute_cell(cell)
+    return scores, time.perf_counter() - start
+
+
 def run(
     cells: Sequence[Cell],
     store: ResultStore,
     progress: Callable[[Iterable[Cell], int], Iterable[Cell]] | None = None,
+    jobs: int = 1,
 ) -> RunSummary:
     """Compute every cell the store lacks and append each one as soon as it is finished.
 
-    ``progress`` wraps the iterable of pending cells (e.g. a tqdm progress bar). An exception
-    or interruption leaves every finished cell in the store.
+    ``progress`` wraps the iterable of pending results (e.g. a tqdm progress bar). With
+    ``jobs`` > 1 the cells are computed on that many local processes; results are stored in
+    cell order, so the store (and every number in it) is the same as a serial run's. An
+    exception or interruption leaves every finished cell in the store.
     """
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise ValueError(f"`jobs` must be an integer >= 1, got {jobs!r}")
     done = store.completed_keys()
     pending = [cell for cell in cells if cell.key not in done]
     meta = provenance()
-    iterable = progress(pending, len(pending)) if progress else pending
     computed = 0
-    for cell in iterable:
-        start = time.perf_counter()
-        scores = compute_cell(cell)
-        elapsed = time.perf_counter() - start
-        finished = datetime.now(timezone.utc).isoformat(timespec="seconds")
-        rows = [
-            {
-                "cell_key": cell.key,
-                "method": cell.method,
-                "params": canonical_params(cell.params),
-                "preset": cell.preset,
-                "scenario": cell.scenario,
-                "seed": cell.seed,
-                **score,
-                "cell_rows": len(scores),
-                "git_rev": meta["git_rev"],
-                "versions": meta["versions"],
-                "finished_utc": finished,
-                "elapsed_s": round(elapsed, 6),
-            }
-            for score in scores
-        ]
-        store.append(rows)
-        computed += 1
+    executor = None
+    if jobs > 1 and len(pending) > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        executor = ProcessPoolExecutor(max_workers=jobs, initializer=_ignore_interrupts)
+        results = executor.map(_timed, pending)
+    else:
+        results = map(_timed, pending)
+    paired = zip(pending, results, strict=True)
+    iterable = progress(paired, len(pending)) if progress else paired
+    try:
+        for cell, (scores, elapsed) in iterable:
+            finished = datetime.now(timezone.utc).isoformat(timespec="seconds")
+            rows = [
+                {
+                    "cell_key": cell.key,
+                    "method": cell.method,
+                    "params": canonical_params(cell.params),
+                    "preset": cell.preset,
+                    "scenario": cell.scenario,
+                    "seed": cell.seed,
+                    **score,
+                    "cell_rows": len(scores),
+                    "git_rev": meta["git_rev"],
+                    "versions": meta["versions"],
+                    "finished_utc": finished,
+                    "elapsed_s": round(elapsed, 6),
+                }
+                for score in scores
+            ]
+            store.append(rows)
+            computed += 1
+    finally:
+        if executor is not None:
+            executor.shutdown(wait=False, cancel_futures=True)
     return RunSummary(total=len(cells), skipped=len(cells) - len(pending), computed=computed)

@@ -7,6 +7,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from bench.stats import confidence_interval, ranking
+
 ORDER_LABELS = {0: "x", 1: "ẋ", 2: "ẍ"}
 REGION_LABELS = {"interior": "interior", "valid": "full"}
 KEYS = ["method", "params", "preset"]
@@ -25,22 +27,24 @@ DECOMPOSITION_COLUMNS = [
 
 
 def summarise(rows: pd.DataFrame) -> pd.DataFrame:
-    """Mean, sample std (ddof=1) and seed count of every metric per method/parameters, region
-    and order. Rows are sorted first, so the same rows give the same sums in any stored order.
+    """Mean, sample std (ddof=1), 95 % CI half-width of the mean (Student t) and seed count of
+    every metric per method/parameters, region and order. Rows are sorted first, so the same
+    rows give the same sums in any stored order.
     """
     ordered = rows.sort_values([*KEYS, "metric", "region", "order", "seed"], kind="stable")
     grouped = ordered.groupby([*KEYS, "metric", "region", "order"], sort=True)["value"]
     summary = grouped.agg(
         mean="mean",
         std=lambda v: float(np.std(v, ddof=1)) if len(v) > 1 else float("nan"),
+        ci95=lambda v: confidence_interval(v.to_numpy())[1],
         seeds="count",
     )
     return summary.reset_index()
 
 
 def wide_table(rows: pd.DataFrame, columns) -> pd.DataFrame:
-    """One row per method/parameters with ``<label> mean`` and ``<label> std`` per column
-    ``(label, metric, order, region)``; methods lacking a metric get NaN there."""
+    """One row per method/parameters with ``<label> mean``, ``<label> std`` and ``<label> ci95``
+    per column ``(label, metric, order, region)``; methods lacking a metric get NaN there."""
     summary = summarise(rows).set_index([*KEYS, "metric", "region", "order"])
     records = []
     for keys, _ in summary.groupby(level=[0, 1, 2], sort=True):
@@ -51,9 +55,11 @@ def wide_table(rows: pd.DataFrame, columns) -> pd.DataFrame:
             if index in summary.index:
                 found = summary.loc[index]
                 record[f"{label} mean"], record[f"{label} std"] = found["mean"], found["std"]
+                record[f"{label} ci95"] = found["ci95"]
                 seeds.append(int(found["seeds"]))
             else:
                 record[f"{label} mean"] = record[f"{label} std"] = float("nan")
+                record[f"{label} ci95"] = float("nan")
         record["seeds"] = min(seeds) if seeds else 0
         records.append(record)
     return pd.DataFrame(records)
@@ -75,7 +81,8 @@ def _pm(mean: float, std: float) -> str:
 
 
 def to_markdown(wide: pd.DataFrame, title: str, notes: str = "") -> str:
-    """A wide table as Markdown: ``mean ± std`` per column, then the presets' sources."""
+    """A wide table as Markdown: ``mean ± h`` per column (h the 95 % confidence half-width of
+    the mean over seeds; the std is in the CSV), then the presets' sources."""
     labels = [c[: -len(" mean")] for c in wide.columns if c.endswith(" mean")]
     header = ["method", "parameters", *labels, "seeds"]
     lines = [f"# {title}", "", "| " + " | ".join(header) + " |",
@@ -84,7 +91,7 @@ def to_markdown(wide: pd.DataFrame, title: str, notes: str = "") -> str:
         cells = [row["method"], f"`{row['params']}`"]
         cells += [
             f"{row[f'{label} mean']:.3f}" if label.startswith("coverage")
-            else _pm(row[f"{label} mean"], row[f"{label} std"])
+            else _pm(row[f"{label} mean"], row[f"{label} ci95"])
             for label in labels
         ]  # fmt: skip
         cells.append(str(row["seeds"]))
@@ -109,17 +116,18 @@ def write_run_tables(rows: pd.DataFrame, directory: Path, scenario: str) -> list
     """The RMSE table and, where linear methods ran, the bias/noise decomposition table."""
     written = write_table(
         rmse_wide(rows), directory, "rmse",
-        f"RMSE per method on `{scenario}` (mean ± std over seeds)",
+        f"RMSE per method on `{scenario}` (mean ± 95 % CI of the mean over seeds)",
         "interior: the scenario's common interior, the same samples for every method; full: "
         "every sample the method estimates (its coverage of the signal is given for ẋ).",
     )  # fmt: skip
+    written += write_ranking(rows, directory)
     if rows["metric"].isin(["bias_rmse", "noise_rmse"]).any():
         decomposition = wide_table(rows, DECOMPOSITION_COLUMNS)
         decomposition = decomposition[decomposition["ẋ bias mean"].notna()]
         written += write_table(
             decomposition, directory, "decomposition",
             f"Error decomposition on `{scenario}`: interior RMS of the total error, of the "
-            "bias part and of the noise part (mean ± std over seeds)",
+            "bias part and of the noise part (mean ± 95 % CI of the mean over seeds)",
             "For a linear method D, D(x + e) − x⁽ⁿ⁾ = [D(x) − x⁽ⁿ⁾] + D(e): bias = the method "
             "on the clean signal minus the truth, noise = the method on the noise alone.",
         )  # fmt: skip
@@ -141,7 +149,7 @@ IDENTIFICATION_SUMMARY = [
 def identification_table(rows: pd.DataFrame, names, truth=None) -> pd.DataFrame:
     """The paper's table II layout: one row per parameter; per method the mean over seeds of
     X̂, of its one-sigma σ_X and of %σ_Xr, and (with ``truth``) the relative error in %
-    (mean ± std over seeds)."""
+    (mean ± 95 % CI of the mean over seeds)."""
     summary = summarise(rows).set_index([*KEYS, "metric", "region", "order"])["mean"]
     spread = summarise(rows).set_index([*KEYS, "metric", "region", "order"])["std"]
     methods_run = sorted({(m, p, s) for m, p, s, *_ in summary.index})
@@ -194,3 +202,29 @@ DFKI_SUMMARY = [
     ("q̇ vs driver (rad/s)", "velocity_rmse_vs_driver", 1, "identification"),
     ("cond(W)", "cond_W", 0, "identification"),
 ]
+
+
+def write_ranking(rows: pd.DataFrame, directory: Path) -> list[Path]:
+    """``ranking.md``/``.csv``: methods ranked by interior RMSE of ẋ and of ẍ, each with its
+    95 % CI and a paired test (t and Wilcoxon over the common seeds) against the next one."""
+    frames, lines = [], ["# Rankings by interior RMSE (paired tests over the same seeds)", ""]
+    for order in (1, 2):
+        table = ranking(rows, "rmse", order, "interior")
+        table.insert(0, "derivative", ORDER_LABELS[order])
+        frames.append(table)
+        lines += [f"## {ORDER_LABELS[order]}", "",
+                  "| rank | method | RMSE mean ± 95 % CI | seeds | better than next? (t p, "
+                  "Wilcoxon p) |", "|---|---|---|---|---|"]  # fmt: skip
+        for rank, row in table.iterrows():
+            verdict = "—"
+            if pd.notna(row["significant_vs_next"]):
+                word = "yes" if row["significant_vs_next"] else "not significant"
+                verdict = f"{word} ({row['vs_next_t_p']:.2g}, {row['vs_next_wilcoxon_p']:.2g})"
+            lines.append(f"| {rank + 1} | {row['method']} | {_pm(row['mean'], row['ci95'])} | "
+                         f"{row['seeds']} | {verdict} |")  # fmt: skip
+        lines.append("")
+    directory.mkdir(parents=True, exist_ok=True)
+    markdown, csv = directory / "ranking.md", directory / "ranking.csv"
+    markdown.write_text("\n".join(lines), encoding="utf-8")
+    pd.concat(frames).to_csv(csv, index=False)
+    return [markdown, csv]

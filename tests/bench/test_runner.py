@@ -164,3 +164,19 @@ def test_killed_process_resumes_to_the_same_table(tmp_path):
     full = (tmp_path / "full" / "paper-signal" / "rmse.csv").read_text()
     resumed = (tmp_path / "killed" / "paper-signal" / "rmse.csv").read_text()
     assert resumed == full
+
+
+def test_two_jobs_store_the_same_numbers_as_a_serial_run(tmp_path):
+    serial, parallel = ResultStore(tmp_path / "s.csv"), ResultStore(tmp_path / "p.csv")
+    cells = _cells(seeds=3, names=("finite_difference", "jacobi", "kalman"))
+    runner.run(cells, serial)
+    summary = runner.run(cells, parallel, jobs=2)
+    assert summary.computed == 9
+    a, b = serial.load(), parallel.load()
+    assert list(a["cell_key"]) == list(b["cell_key"])
+    np.testing.assert_array_equal(a["value"].to_numpy(), b["value"].to_numpy())
+
+
+def test_jobs_must_be_a_positive_integer(tmp_path):
+    with pytest.raises(ValueError, match="`jobs` must be an integer >= 1, got 0"):
+        runner.run(_cells(), ResultStore(tmp_path / "r.csv"), jobs=0)
