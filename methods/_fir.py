@@ -54,6 +54,7 @@ def fir_response(taps: np.ndarray, frequency_hz, dt: float) -> np.ndarray:
     (the output for the input :math:`e^{i 2\pi f t}` is :math:`H(f) e^{i 2\pi f t}`).
     """
     taps = np.asarray(taps, dtype=np.float64)
-    offsets = np.arange(taps.size) - taps.size // 2
     theta = 2 * np.pi * np.atleast_1d(np.asarray(frequency_hz, dtype=np.float64)) * dt
-    return np.exp(1j * np.outer(theta, offsets)) @ taps
+    unit = np.exp(1j * theta)
+    # Horner's scheme on the unit circle (stable), then the shift to the centred taps
+    return np.polynomial.polynomial.polyval(unit, taps) * unit ** -(taps.size // 2)

@@ -177,6 +177,11 @@ class Method:
     def check_step(self, dt: float) -> None:
         return None
 
+    @classmethod
+    def irrelevant_params(cls, order: int) -> tuple[str, ...]:
+        """Parameters that do not change the estimate of ``order`` (a tuner leaves them)."""
+        return ()
+
     def exact_degree(self, order: int) -> float | None:
         """Highest polynomial degree whose derivative of ``order`` is reproduced exactly on the
         valid samples (``math.inf``: any degree; ``None``: not exact for any degree)."""

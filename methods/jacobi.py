@@ -133,6 +133,10 @@ class Jacobi(FirMethod):
         """Reversing time flips odd derivatives only for a symmetric weight (κ = μ)."""
         return self.kappa == self.mu
 
+    @classmethod
+    def irrelevant_params(cls, order: int) -> tuple[str, ...]:
+        return ("window_s",) if order == 2 else ("accel_window_s",)
+
     def _window(self, order: int) -> tuple[str, float]:
         if order == 2:
             return "accel_window_s", self.accel_window_s

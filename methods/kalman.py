@@ -13,6 +13,7 @@ from methods._registry import Method, Preset, param, register
 from methods._validation import check_dt, check_orders
 
 _STATIONARY = 4 * np.finfo(float).eps  # relative change of the gains that counts as none
+_SETTLED = 1e-11  # relative change accepted as converged once held for 50 m steps
 _NEGLIGIBLE = 1e-18  # relative size at which the impulse responses are truncated
 
 
@@ -93,29 +94,37 @@ class Gains:
 def covariance_recursion(model: KalmanModel, prior_covariance: np.ndarray, n: int) -> Gains:
     """Run the covariance part of the filter and smoother (filterpy's equations: Joseph-form
     update, C_k = P_k Fᵀ (F P_k Fᵀ + Q)⁻¹) for n steps or until both gains are stationary
-    to rounding (relative change <= 4 eps for 2m consecutive steps): the recursion's own
-    fixed point, which is what filterpy converges to."""
+    to rounding (relative change <= 4 eps for 2m consecutive steps, or <= 1e-11 for 50m steps
+    where rounding keeps the last bits moving): the recursion's own fixed point, which is what
+    filterpy converges to."""
     F, Q, R, m = model.F, model.Q, model.R, model.states
+    F_t = F.T
     identity = np.eye(m)
+    inverse = np.linalg.inv
     P = prior_covariance
     filter_gains, smoother_gains = [], []
-    quiet = 0
+    quiet = settled = 0
     for _ in range(n):
-        predicted = F @ P @ F.T + Q
+        predicted = F @ P @ F_t + Q
         gain = predicted[:, 0] / (predicted[0, 0] + R)
         i_kh = identity.copy()
         i_kh[:, 0] -= gain
-        P = i_kh @ predicted @ i_kh.T + R * np.outer(gain, gain)
-        smoother = P @ F.T @ np.linalg.inv(F @ P @ F.T + Q)
+        P = i_kh @ predicted @ i_kh.T + R * (gain[:, None] * gain[None, :])
+        smoother = P @ F_t @ inverse(F @ P @ F_t + Q)
         if filter_gains:
-            still = np.max(np.abs(gain - filter_gains[-1])) <= _STATIONARY * np.max(np.abs(gain))
-            still &= np.max(np.abs(smoother - smoother_gains[-1])) <= _STATIONARY * np.max(
-                np.abs(smoother)
+            # ndarray methods: this loop is the Kalman smoother's fixed cost per call
+            still = abs(gain - filter_gains[-1]).max() <= _STATIONARY * abs(gain).max() and (
+                abs(smoother - smoother_gains[-1]).max() <= _STATIONARY * abs(smoother).max()
             )
             quiet = quiet + 1 if still else 0
+            # Where rounding keeps the last bits moving, settle for 1e-11 held for 50 m steps.
+            close = abs(gain - filter_gains[-1]).max() <= _SETTLED * abs(gain).max() and (
+                abs(smoother - smoother_gains[-1]).max() <= _SETTLED * abs(smoother).max()
+            )
+            settled = settled + 1 if close else 0
         filter_gains.append(gain)
         smoother_gains.append(smoother)
-        if quiet >= 2 * m:
+        if quiet >= 2 * m or settled >= 50 * m:
             break
     return Gains(
         filter_gains=np.array(filter_gains),
@@ -128,12 +137,12 @@ def covariance_recursion(model: KalmanModel, prior_covariance: np.ndarray, n: in
 def _powers_times(matrix: np.ndarray, vectors: np.ndarray, limit: int) -> np.ndarray:
     """``matrix^j @ vectors`` for j = 0.. until negligible (or ``limit``): shape (L, ...)."""
     out = [vectors]
-    scale = np.max(np.abs(vectors)) or 1.0
+    scale = float(abs(vectors).max()) or 1.0
     current = vectors
     while len(out) < limit:
         current = matrix @ current
         out.append(current)
-        if np.max(np.abs(current)) < _NEGLIGIBLE * scale and len(out) > 8:
+        if len(out) % 8 == 0 and abs(current).max() < _NEGLIGIBLE * scale:
             break
     return np.array(out)
 
@@ -219,6 +228,15 @@ def rts_smooth(z: np.ndarray, model: KalmanModel, mean0, covariance0) -> np.ndar
 
 
 @functools.lru_cache(maxsize=64)
+def _steady_gains(model_order: int, dt: float, bandwidth_hz: float) -> Gains:
+    """The steady gains of the model (the recursion run from the usual prior until stationary;
+    cached: the frequency response needs them for every frequency set)."""
+    model = _cached_model(model_order, dt, bandwidth_hz)
+    _, covariance0 = initial_state(np.zeros((4 * model.states, 1)), model.states)
+    return covariance_recursion(model, covariance0, 10**6)
+
+
+@functools.lru_cache(maxsize=64)
 def _cached_model(model_order: int, dt: float, bandwidth_hz: float) -> KalmanModel:
     return polynomial_model(model_order, dt, bandwidth_hz)
 
@@ -250,7 +268,7 @@ class KalmanSmoother(Method):
     """
 
     bandwidth_hz: float = param(
-        20.0, low=0.0, low_open=True, tune_low=0.1, tune_high=200.0, log=True,
+        20.0, low=0.0, low_open=True, tune_low=0.5, tune_high=200.0, log=True,
         doc="-6 dB point of the steady-state smoother, Hz (sets q/R)",
     )  # fmt: skip
     model_order: int = param(
@@ -297,21 +315,20 @@ class KalmanSmoother(Method):
         self.check_step(dt)
         check_orders((order,))
         model = self.model(dt)
-        _, covariance0 = initial_state(np.zeros((4 * model.states, 1)), model.states)
-        gains = covariance_recursion(model, covariance0, 10**7)
+        gains = _steady_gains(self.model_order, float(dt), self.bandwidth_hz)
         F, m = model.F, model.states
         a_matrix = F - np.outer(gains.steady_filter, F[0])
         c_matrix = gains.steady_smoother
         theta = 2 * np.pi * np.atleast_1d(np.asarray(frequency_hz, dtype=np.float64)) * dt
-        response = np.empty(theta.shape, dtype=complex)
-        for index, angle in enumerate(theta):
-            forward = np.linalg.solve(
-                np.eye(m) - a_matrix * np.exp(-1j * angle), gains.steady_filter
-            )
-            backward = np.linalg.solve(
-                np.eye(m) - c_matrix * np.exp(1j * angle), (np.eye(m) - c_matrix @ F) @ forward
-            )
-            response[index] = backward[order] * model.to_derivatives[order]
+        identity = np.eye(m)[None, :, :]
+        behind = np.exp(-1j * theta)[:, None, None]
+        forward = np.linalg.solve(
+            identity - a_matrix[None] * behind,
+            np.broadcast_to(gains.steady_filter, (theta.size, m))[..., None],
+        )
+        mix = (np.eye(m) - c_matrix @ F)[None] @ forward
+        backward = np.linalg.solve(identity - c_matrix[None] / behind, mix)[..., 0]
+        response = backward[:, order] * model.to_derivatives[order]
         return response
 
     def _estimate(self, x, dt, orders):

@@ -24,7 +24,8 @@ def _filterpy(z, model, mean0, covariance0):
 @pytest.mark.parametrize(
     ("model_order", "n", "bandwidth_hz", "dt"),
     [(2, 9, 20.0, 1e-3), (2, 60, 20.0, 1e-3), (3, 60, 40.0, 1e-3), (2, 3000, 20.0, 1e-3),
-     (3, 3000, 5.0, 1e-3), (2, 500, 1.0, 0.01), (3, 2500, 60.0, 1e-3), (2, 4000, 150.0, 1e-3)],
+     (3, 3000, 5.0, 1e-3), (2, 500, 1.0, 0.01), (3, 2500, 60.0, 1e-3), (2, 4000, 150.0, 1e-3),
+     (3, 3000, 300.0, 1e-3), (3, 1500, 440.0, 1e-3)],
 )  # fmt: skip
 def test_fast_smoother_equals_filterpy(model_order, n, bandwidth_hz, dt):
     rng = np.random.default_rng(n + model_order)
