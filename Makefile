@@ -17,6 +17,9 @@ $(STAMP): pyproject.toml
 
 bench: $(STAMP)
 	$(BIN)/diffbench run paper-signal --seeds $(SEEDS) --out results
+	for criterion in oracle no-truth pynumdiff; do for order in 1 2; do \
+	  $(BIN)/diffbench tune all paper-signal --$$criterion --order $$order --seeds $(SEEDS) \
+	    --out results --no-progress || exit 1; done; done
 	$(BIN)/diffbench paper-figures --seeds $(SEEDS) --out results
 	$(BIN)/diffbench identify sim --seeds $(SEEDS) --out results
 	$(BIN)/diffbench identify dfki --out results

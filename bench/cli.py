@@ -7,8 +7,11 @@ run keeps every finished cell and exits with code 130; the same command resumes 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
+
+import pandas as pd
 
 import methods
 import signals
@@ -93,6 +96,56 @@ def build_parser() -> argparse.ArgumentParser:
     identify.add_argument("--methods", default=None, help="comma-separated method names")
     identify.add_argument("--no-progress", action="store_true", help="no progress bar")
     identify.add_argument("--jobs", type=_positive_int, default=1, help="local processes")
+
+    tune = commands.add_parser(
+        "tune", help="tune a method (or all) on a scenario's tuning seed, score on other seeds"
+    )
+    tune.add_argument("method", help="method name, or 'all'")
+    tune.add_argument("scenario", help="scenario name (see `diffbench list`)")
+    criterion = tune.add_mutually_exclusive_group()
+    criterion.add_argument(
+        "--oracle",
+        dest="criterion",
+        action="store_const",
+        const="oracle",
+        help="minimise the RMSE against the truth (default)",
+    )
+    criterion.add_argument(
+        "--no-truth",
+        dest="criterion",
+        action="store_const",
+        const="no-truth",
+        help="data-only spectral risk (needs --cutoff-hz)",
+    )
+    criterion.add_argument(
+        "--pynumdiff",
+        dest="criterion",
+        action="store_const",
+        const="pynumdiff",
+        help="PyNumDiff's data-only loss",
+    )
+    tune.set_defaults(criterion="oracle")
+    tune.add_argument(
+        "--order", type=int, choices=[1, 2], default=2, help="derivative to tune for (default 2)"
+    )
+    tune.add_argument(
+        "--cutoff-hz",
+        type=float,
+        default=20.0,
+        help="bandlimit guess for the data-only criteria (default 20)",
+    )
+    tune.add_argument(
+        "--tuning-seed",
+        type=int,
+        default=10_000,
+        help="noise seed tuned on (default 10000; never scored)",
+    )
+    tune.add_argument(
+        "--seeds", type=_positive_int, default=20, help="scoring seeds 0..N-1 (default 20)"
+    )
+    tune.add_argument("--out", type=Path, default=Path("results"))
+    tune.add_argument("--no-progress", action="store_true", help="no progress bar")
+    tune.add_argument("--jobs", type=_positive_int, default=1, help="local processes")
 
     table = commands.add_parser("table", help="render the tables of a stored run again")
     table.add_argument("scenario")
@@ -284,6 +337,49 @@ def _identify_dfki(args: argparse.Namespace, names) -> None:
         print(path)
 
 
+def _cmd_tune(args: argparse.Namespace) -> None:
+    from bench import tuning
+
+    if args.tuning_seed < args.seeds:
+        raise UsageError(f"--tuning-seed {args.tuning_seed} is among the scored seeds "
+                         f"0..{args.seeds - 1}; choose one >= {args.seeds}")  # fmt: skip
+    scenario = signals.get_scenario(args.scenario)
+    names = (
+        methods.available() if args.method == "all" else [methods.method_class(args.method).name]
+    )
+    realisation = scenario.realise(args.tuning_seed)
+    directory = _scenario_dir(args.out, args.scenario)
+    cells, records = [], []
+    for name in names:
+        if args.criterion == "no-truth" and not methods.method_class(name).linear:
+            print(f"{name}: not linear, skipped for --no-truth", file=sys.stderr)
+            continue
+        result = tuning.tune(name, realisation, args.order, args.criterion, args.cutoff_hz)
+        label = (f"tuned: {args.criterion} for {tables.ORDER_LABELS[args.order]} on seed "
+                 f"{args.tuning_seed}")  # fmt: skip
+        params = {**methods.get(name).params(), **result.params}
+        cells += [runner.Cell(name, params, args.scenario, seed, preset=label)
+                  for seed in range(args.seeds)]  # fmt: skip
+        records.append({"method": name, "criterion": args.criterion, "order": args.order,
+                        "tuning_seed": args.tuning_seed, "loss": result.loss,
+                        "evaluations": result.evaluations, "seconds": round(result.seconds, 3),
+                        "params": json.dumps(params, sort_keys=True)})  # fmt: skip
+        print(
+            f"{name}: {result.params} (loss {result.loss:.4g}, {result.evaluations} "
+            f"evaluations, {result.seconds:.2f} s)"
+        )
+    store = ResultStore(directory / "cells.csv")
+    summary = _run_cells(cells, store, args)
+    log = directory / "tuning.csv"
+    frame = pd.DataFrame(records)
+    frame.to_csv(log, mode="a", header=not log.exists(), index=False)
+    written = [*_render(store, directory, args.scenario), log]
+    written += tables.write_tuning_summary(store.load(), pd.read_csv(log), directory)
+    print(f"{summary.computed} cells computed, {summary.skipped} already stored")
+    for path in written:
+        print(path)
+
+
 def _cmd_table(args: argparse.Namespace) -> None:
     signals.get_scenario(args.scenario)
     directory = _scenario_dir(args.out, args.scenario)
@@ -306,6 +402,8 @@ def main(argv: list[str] | None = None) -> int:
             _cmd_paper_figures(args)
         elif args.command == "identify":
             _cmd_identify(args)
+        elif args.command == "tune":
+            _cmd_tune(args)
         elif args.command == "table":
             _cmd_table(args)
     except (UsageError, ValueError) as error:

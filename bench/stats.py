@@ -52,15 +52,15 @@ def ranking(rows: pd.DataFrame, metric: str, order: int, region: str,
                   & (rows["region"] == region)]  # fmt: skip
     if chosen.empty:
         raise ValueError(f"no stored rows for {metric!r}, order {order}, region {region!r}")
-    series = {
-        (method, params): group.set_index("seed")["value"].sort_index()
-        for (method, params), group in chosen.groupby(["method", "params"], sort=True)
-    }
+    series, labels = {}, {}
+    for (method, params), group in chosen.groupby(["method", "params"], sort=True):
+        series[(method, params)] = group.set_index("seed")["value"].sort_index()
+        labels[(method, params)] = str(group["preset"].iloc[0]) if "preset" in group else ""
     records = []
     for key, values in series.items():
         mean, half = confidence_interval(values.to_numpy())
-        records.append({"method": key[0], "params": key[1], "mean": mean, "ci95": half,
-                        "seeds": int(values.size)})  # fmt: skip
+        records.append({"method": key[0], "params": key[1], "preset": labels[key], "mean": mean,
+                        "ci95": half, "seeds": int(values.size)})  # fmt: skip
     table = pd.DataFrame(records).sort_values("mean", kind="stable").reset_index(drop=True)
     for column in ("vs_next_mean_difference", "vs_next_t_p", "vs_next_wilcoxon_p"):
         table[column] = np.nan

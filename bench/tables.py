@@ -220,11 +220,63 @@ def write_ranking(rows: pd.DataFrame, directory: Path) -> list[Path]:
             if pd.notna(row["significant_vs_next"]):
                 word = "yes" if row["significant_vs_next"] else "not significant"
                 verdict = f"{word} ({row['vs_next_t_p']:.2g}, {row['vs_next_wilcoxon_p']:.2g})"
-            lines.append(f"| {rank + 1} | {row['method']} | {_pm(row['mean'], row['ci95'])} | "
+            name = row["method"]
+            if str(row["preset"]).startswith("tuned"):
+                name += f" ({row['preset'].split(' on seed')[0]})"
+            lines.append(f"| {rank + 1} | {name} | {_pm(row['mean'], row['ci95'])} | "
                          f"{row['seeds']} | {verdict} |")  # fmt: skip
         lines.append("")
     directory.mkdir(parents=True, exist_ok=True)
     markdown, csv = directory / "ranking.md", directory / "ranking.csv"
     markdown.write_text("\n".join(lines), encoding="utf-8")
     pd.concat(frames).to_csv(csv, index=False)
+    return [markdown, csv]
+
+
+def write_tuning_summary(rows: pd.DataFrame, log: pd.DataFrame, directory: Path) -> list[Path]:
+    """``tuning.md``: per method and derivative, the interior RMSE on the scoring seeds of the
+    preset and of each tuned parameter set (looked up by its parameters, so a tuning that lands
+    on the preset is still found), the no-truth / oracle ratio, and the tuning time."""
+    import json
+
+    from bench.store import canonical_params
+
+    chosen = rows[(rows["metric"] == "rmse") & (rows["region"] == "interior")]
+    means = chosen.groupby(["method", "params", "order"])["value"].mean()
+    presets = chosen[~chosen["preset"].astype(str).str.startswith("tuned")]
+    lines = ["# Tuning: preset vs tuned (interior RMSE on the scoring seeds, never the tuning "
+             "seed)", "",
+             "| method | n | preset | oracle-tuned | no-truth-tuned | no-truth / oracle | "
+             "pynumdiff-tuned | tuning s (oracle, no-truth, pynumdiff) |",
+             "|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    records = []
+    for method in sorted(log["method"].unique()):
+        for order in sorted(log[log["method"] == method]["order"].unique()):
+            found = {}
+            for criterion in ("oracle", "no-truth", "pynumdiff"):
+                hit = log[(log["method"] == method) & (log["order"] == order)
+                          & (log["criterion"] == criterion)]  # fmt: skip
+                if len(hit):
+                    params = canonical_params(json.loads(hit["params"].iloc[-1]))
+                    found[criterion] = (means.get((method, params, order), float("nan")),
+                                        float(hit["seconds"].iloc[-1]))  # fmt: skip
+                else:
+                    found[criterion] = (float("nan"), float("nan"))
+            mine = presets[(presets["method"] == method) & (presets["order"] == order)]
+            preset = float(mine.groupby("params")["value"].mean().iloc[0]) if len(mine) else (
+                float("nan"))  # fmt: skip
+            oracle, no_truth, pynumdiff = (found[c][0] for c in ("oracle", "no-truth",
+                                                                 "pynumdiff"))  # fmt: skip
+            ratio = no_truth / oracle if oracle > 0 else float("nan")
+            times = ", ".join(f"{found[c][1]:.2f}" for c in ("oracle", "no-truth", "pynumdiff"))
+            records.append({"method": method, "order": int(order), "preset": preset,
+                            "oracle": oracle, "no_truth": no_truth,
+                            "no_truth_over_oracle": ratio, "pynumdiff": pynumdiff,
+                            "seconds": times})  # fmt: skip
+            lines.append(f"| {method} | {ORDER_LABELS[int(order)]} | {preset:.4g} | "
+                         f"{oracle:.4g} | {no_truth:.4g} | {ratio:.3f} | {pynumdiff:.4g} | "
+                         f"{times} |")  # fmt: skip
+    markdown, csv = directory / "tuning.md", directory / "tuning_summary.csv"
+    markdown.write_text("\n".join([*lines, ""]), encoding="utf-8")
+    pd.DataFrame(records).to_csv(csv, index=False)
     return [markdown, csv]

@@ -201,14 +201,16 @@ def tune(
     order: int,
     criterion: str = "oracle",
     cutoff_hz: float | None = None,
-    max_evaluations: int = 300,
+    max_evaluations: int | None = None,
     seed: int = 0,
 ) -> TuningResult:
     """Tune method ``name`` on one realisation (samples ``x``, step ``dt_s``, ``interior``,
     and, for the oracle, ``truth``) for the derivative of ``order``.
 
     Candidates that a method rejects (e.g. a window longer than the signal) or that leave part
-    of the interior unestimated cost +inf. ``max_evaluations`` bounds the work.
+    of the interior unestimated cost +inf. ``max_evaluations`` bounds the work of the
+    differential evolution (default 100 per searched parameter, within 150..400); at most one
+    non-choice parameter is searched by a grid refined with Brent's method instead.
     """
     if criterion not in CRITERIA:
         raise ValueError(f"`criterion` must be one of {', '.join(CRITERIA)}, got {criterion!r}")
@@ -265,8 +267,9 @@ def tune(
     else:
         bounds = [d.bounds() for d in dimensions]
         integrality = [d.kind in ("int", "choice") for d in dimensions]
+        budget = max_evaluations or min(400, max(150, 100 * len(dimensions)))
         popsize = max(5, min(15, 40 // len(dimensions)))
-        generations = max(2, max_evaluations // (popsize * len(dimensions)) - 1)
+        generations = max(2, budget // (popsize * len(dimensions)) - 1)
         result = optimize.differential_evolution(
             loss, bounds, integrality=integrality, seed=seed, popsize=popsize,
             maxiter=generations, tol=1e-4, polish=False, init="sobol", updating="deferred",

@@ -3,6 +3,8 @@ paper's baseline."""
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy import signal as sps
 
@@ -10,6 +12,12 @@ from methods._fir import apply_central_fir, fir_response
 from methods._registry import Method, Preset, param, register
 from methods._validation import check_dt, check_orders
 from methods.finite_difference import central_difference_weights
+
+
+@functools.lru_cache(maxsize=256)
+def _butter_sos(order: int, cutoff_hz: float, dt: float) -> np.ndarray:
+    # scipy's zpk2sos takes about a millisecond: cached (callers get copies)
+    return sps.butter(order, cutoff_hz, btype="low", output="sos", fs=1.0 / dt)
 
 
 @register("butterworth")
@@ -74,7 +82,7 @@ class ButterworthEuler(Method):
             )
 
     def _sos(self, dt: float) -> np.ndarray:
-        return sps.butter(self.order, self.cutoff_hz, btype="low", output="sos", fs=1.0 / dt)
+        return _butter_sos(self.order, self.cutoff_hz, float(dt)).copy()  # scipy wants it writable
 
     def min_samples(self, dt: float) -> int:
         # sosfiltfilt's default padding needs more samples than its pad length.

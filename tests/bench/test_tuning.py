@@ -1,0 +1,157 @@
+"""The tuner: known optima, ranges respected, tuning and scoring on different seeds."""
+
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+import methods
+import signals
+from bench import tuning
+from bench.cli import main
+from methods import Method, Preset, param, register
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _test_methods():
+    """Two test-only methods with known optima, registered for this module only."""
+    from methods import _registry
+
+    @register("_test_gain")
+    class _Gain(Method):
+        """ẋ̂ = gain·x + (k−3)² + [mode ≠ 'b']: optimum gain = 2.5, k = 3, mode = 'b'."""
+
+        gain: float = param(1.0, low=0.0, low_open=True, tune_low=0.1, tune_high=10.0,
+                            log=True, doc="test")  # fmt: skip
+        k: int = param(1, low=1, high=9, integer=True, tune_low=1, tune_high=9, doc="test")
+        mode: str = param("a", choices=("a", "b", "c"), doc="test")
+        presets = {"x": Preset({"gain": 1.0}, "test")}
+
+        def _estimate(self, x, dt, orders):
+            valid = np.ones(x.shape[0], dtype=bool)
+            value = self.gain * x + (self.k - 3) ** 2 + (self.mode != "b")
+            return {o: value for o in orders}, {o: valid for o in orders}
+
+    @register("_test_gain_1d")
+    class _Gain1D(Method):
+        gain: float = param(1.0, low=0.0, low_open=True, tune_low=0.1, tune_high=10.0,
+                            log=True, doc="test")  # fmt: skip
+
+        def _estimate(self, x, dt, orders):
+            valid = np.ones(x.shape[0], dtype=bool)
+            return {o: self.gain * x for o in orders}, {o: valid for o in orders}
+
+    yield
+    for name in ("_test_gain", "_test_gain_1d"):
+        _registry._REGISTRY.pop(name, None)
+
+
+@dataclass
+class _Realisation:
+    x: np.ndarray
+    dt_s: float
+    interior: np.ndarray
+    truth: dict
+
+
+def _known_problem():
+    x = np.sin(np.linspace(0, 20, 500)) + 0.3
+    return _Realisation(x, 1e-3, np.ones(500, bool), {1: 2.5 * x, 2: 2.5 * x})
+
+
+def test_tuner_finds_a_known_mixed_integer_optimum():
+    result = tuning.tune("_test_gain", _known_problem(), 1, "oracle")
+    assert result.params["k"] == 3 and result.params["mode"] == "b"
+    assert result.params["gain"] == pytest.approx(2.5, rel=0.02)
+    assert result.loss < 0.05
+
+
+def test_grid_and_brent_path_finds_a_one_dimensional_optimum():
+    result = tuning.tune("_test_gain_1d", _known_problem(), 2, "oracle")
+    assert result.params["gain"] == pytest.approx(2.5, rel=1e-3)
+    assert result.evaluations < 60
+
+
+@pytest.mark.parametrize(
+    "name",
+    ["butterworth", "savitzky_golay", "jacobi", "kalman", "sindy_smoothing", "finite_difference"],
+)
+def test_tuned_parameters_lie_in_the_declared_ranges_and_beat_or_match_the_preset(name):
+    scenario = signals.get_scenario("paper-signal")
+    tuned_on = scenario.realise(10_000)
+    result = tuning.tune(name, tuned_on, 2, "oracle")
+    cls = methods.method_class(name)
+    for spec in methods.params_of(cls):
+        if spec.name in result.params:
+            value = result.params[spec.name]
+            spec.check(value)
+            if spec.tune_low is not None:
+                low = spec.tune_low if not spec.name.endswith("window_s") else 0
+                assert low - 1e-12 <= value <= spec.tune_high + 1e-3
+    # scored on other seeds, the tuned method is no worse than its preset on average
+    tuned = methods.get(name, **result.params)
+    preset, _ = methods.preset(name, "paper-signal")
+    errors = {"tuned": [], "preset": []}
+    for seed in range(3):
+        realisation = scenario.realise(seed)
+        for label, method in (("tuned", tuned), ("preset", preset)):
+            estimate = method(realisation.x, realisation.dt_s, orders=(2,))
+            error = estimate[2][realisation.interior] - realisation.truth[2][realisation.interior]
+            errors[label].append(np.sqrt(np.mean(error**2)))
+    assert np.mean(errors["tuned"]) <= 1.02 * np.mean(errors["preset"])
+
+
+def test_spectral_risk_predicts_the_actual_error_of_a_linear_method():
+    """On white noise + a band-limited signal, the data-only estimate of the RMSE is close to
+    the RMSE measured against the truth."""
+    scenario = signals.get_scenario("damped-gaussian")
+    realisation = scenario.realise(3)
+    inside = realisation.interior
+    for name, params in (("savitzky_golay", {"window_s": 0.06, "degree": 3}),
+                         ("butterworth", {"order": 4, "cutoff_hz": 30.0})):  # fmt: skip
+        method = methods.get(name, **params)
+        for order in (1, 2):
+            estimate = method(realisation.x, realisation.dt_s, orders=(order,))
+            actual = np.sqrt(
+                np.mean((estimate[order][inside] - realisation.truth[order][inside]) ** 2)
+            )
+            predicted = tuning.spectral_risk(method, realisation.x[inside], realisation.dt_s,
+                                             order, cutoff_hz=20.0)  # fmt: skip
+            assert predicted == pytest.approx(actual, rel=0.25), (name, order)
+
+
+def test_pynumdiff_loss_by_hand():
+    """A perfect derivative of a line integrates back exactly: loss = 0 + gamma * 0."""
+    t = np.arange(100) * 0.01
+    x = 3.0 + 2.0 * t
+    assert tuning.no_truth_loss(x, np.full(100, 2.0), 0.01, 1, gamma=5.0) == pytest.approx(
+        0.0, abs=1e-12
+    )
+    rough = np.full(100, 2.0)
+    rough[::2] += 1.0
+    assert tuning.no_truth_loss(x, rough, 0.01, 1, gamma=1.0) > 1.0  # mean |step| = 1
+    assert tuning.pynumdiff_gamma(20.0, 0.001) == pytest.approx(0.0068148, rel=1e-4)
+
+
+def test_bad_tuning_requests():
+    realisation = signals.get_scenario("paper-signal").realise(10_000)
+    with pytest.raises(ValueError, match="`criterion` must be one of"):
+        tuning.tune("butterworth", realisation, 1, "magic")
+    with pytest.raises(ValueError, match="needs `cutoff_hz`"):
+        tuning.tune("butterworth", realisation, 1, "no-truth")
+    with pytest.raises(ValueError, match="`order` must be 1 or 2"):
+        tuning.tune("butterworth", realisation, 3)
+
+
+def test_tune_cli_tunes_on_one_seed_and_scores_on_others(tmp_path, capsys):
+    args = ["tune", "savitzky_golay", "paper-signal", "--oracle", "--order", "1", "--seeds",
+            "3", "--out", str(tmp_path), "--no-progress"]  # fmt: skip
+    assert main(args) == 0
+    from bench.store import ResultStore
+
+    rows = ResultStore(tmp_path / "paper-signal" / "cells.csv").load()
+    assert set(rows["seed"]) == {0, 1, 2}  # the tuning seed 10000 is never scored
+    assert rows["preset"].str.startswith("tuned: oracle for ẋ on seed 10000").all()
+    assert (tmp_path / "paper-signal" / "tuning.md").exists()
+    assert main([*args, "--tuning-seed", "1"]) == 2
+    assert "is among the scored seeds" in capsys.readouterr().err
