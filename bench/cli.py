@@ -147,6 +147,9 @@ def build_parser() -> argparse.ArgumentParser:
     tune.add_argument("--no-progress", action="store_true", help="no progress bar")
     tune.add_argument("--jobs", type=_positive_int, default=1, help="local processes")
 
+    timing = commands.add_parser("timing", help="throughput of every method vs signal length")
+    timing.add_argument("--out", type=Path, default=Path("results"))
+
     table = commands.add_parser("table", help="render the tables of a stored run again")
     table.add_argument("scenario")
     table.add_argument("--out", type=Path, default=Path("results"))
@@ -404,6 +407,11 @@ def main(argv: list[str] | None = None) -> int:
             _cmd_identify(args)
         elif args.command == "tune":
             _cmd_tune(args)
+        elif args.command == "timing":
+            from bench import timing
+
+            for path in timing.write_throughput(args.out / "timing", timing.throughput()):
+                print(path)
         elif args.command == "table":
             _cmd_table(args)
     except (UsageError, ValueError) as error:
