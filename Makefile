@@ -23,6 +23,7 @@ bench: $(STAMP)
 	$(BIN)/diffbench paper-figures --seeds $(SEEDS) --out results
 	$(BIN)/diffbench identify sim --seeds $(SEEDS) --out results
 	$(BIN)/diffbench identify dfki --out results
+	$(BIN)/diffbench grid --seeds 10 --jobs 2 --out results --no-progress
 	$(BIN)/diffbench timing --out results
 
 lint: $(STAMP)

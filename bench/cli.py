@@ -147,6 +147,15 @@ def build_parser() -> argparse.ArgumentParser:
     tune.add_argument("--no-progress", action="store_true", help="no progress bar")
     tune.add_argument("--jobs", type=_positive_int, default=1, help="local processes")
 
+    grid = commands.add_parser(
+        "grid", help="tune every method on the noise x level x step grid and find the winners"
+    )
+    grid.add_argument("--seeds", type=_positive_int, default=10, help="scoring seeds 0..N-1")
+    grid.add_argument("--orders", default="1,2", help="derivatives tuned for (default 1,2)")
+    grid.add_argument("--out", type=Path, default=Path("results"))
+    grid.add_argument("--jobs", type=_positive_int, default=1, help="local processes")
+    grid.add_argument("--no-progress", action="store_true", help="no progress bar")
+
     timing = commands.add_parser("timing", help="throughput of every method vs signal length")
     timing.add_argument("--out", type=Path, default=Path("results"))
 
@@ -383,6 +392,25 @@ def _cmd_tune(args: argparse.Namespace) -> None:
         print(path)
 
 
+def _cmd_grid(args: argparse.Namespace) -> None:
+    from bench import grid
+
+    try:
+        orders = tuple(int(o) for o in args.orders.split(","))
+    except ValueError:
+        raise UsageError(f"--orders must be a comma-separated list of 1 and 2, got "
+                         f"{args.orders!r}") from None  # fmt: skip
+    if not set(orders) <= {1, 2}:
+        raise UsageError(f"--orders must hold 1 and/or 2, got {args.orders!r}")
+    directory = args.out / "grid"
+    store = ResultStore(directory / "cells.csv")
+    cells = grid.grid_cells(range(args.seeds), orders, jobs=args.jobs)
+    summary = _run_cells(cells, store, args)
+    print(f"{summary.computed} cells computed, {summary.skipped} already stored")
+    for path in grid.write_winners(store.load(), directory):
+        print(path)
+
+
 def _cmd_table(args: argparse.Namespace) -> None:
     signals.get_scenario(args.scenario)
     directory = _scenario_dir(args.out, args.scenario)
@@ -407,6 +435,8 @@ def main(argv: list[str] | None = None) -> int:
             _cmd_identify(args)
         elif args.command == "tune":
             _cmd_tune(args)
+        elif args.command == "grid":
+            _cmd_grid(args)
         elif args.command == "timing":
             from bench import timing
 

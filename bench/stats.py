@@ -38,7 +38,10 @@ def paired_comparison(first, second) -> dict[str, float]:
     if first.size < 2 or np.all(difference == 0):
         return {"mean_difference": float(np.mean(difference)), "t_p": float("nan"),
                 "wilcoxon_p": float("nan")}  # fmt: skip
-    t_p = float(stats.ttest_rel(first, second).pvalue)
+    if np.ptp(difference) == 0:  # the same nonzero difference on every seed: no doubt left
+        t_p = 0.0
+    else:
+        t_p = float(stats.ttest_rel(first, second).pvalue)
     wilcoxon_p = float(stats.wilcoxon(first, second).pvalue)
     return {"mean_difference": float(np.mean(difference)), "t_p": t_p, "wilcoxon_p": wilcoxon_p}
 

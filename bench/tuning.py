@@ -232,8 +232,13 @@ def tune(
     cache: dict[tuple, float] = {}
     history = []
 
+    defaults = {spec.name: spec.default for spec in methods.params_of(cls)}
+
     def params_of(vector) -> dict[str, Any]:
-        params = {d.name: d.value(v) for d, v in zip(dimensions, vector, strict=True)}
+        # every parameter: the searched ones from the vector, the others at their defaults,
+        # windows snapped to the step
+        params = {**defaults, **{d.name: d.value(v) for d, v in zip(dimensions, vector,
+                                                                      strict=True)}}  # fmt: skip
         return snap(params, dt)
 
     def loss(vector) -> float:
@@ -275,7 +280,7 @@ def tune(
             maxiter=generations, tol=1e-4, polish=False, init="sobol", updating="deferred",
         )  # fmt: skip
         best = params_of(result.x)
-    value = cache[tuple(sorted(best.items()))] if best else loss([])
+    value = cache.get(tuple(sorted(best.items())), math.inf) if best else loss([])
     return TuningResult(
         method=name, params=best, loss=value, criterion=criterion, order=order,
         evaluations=len(cache), seconds=time.perf_counter() - start, history=tuple(history),

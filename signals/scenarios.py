@@ -327,3 +327,45 @@ register_scenario(
         preset="default",
     )
 )
+
+
+# --- the scenario grid: noise type x noise level x sampling step ---------------------------
+GRID_NOISE_LEVELS = (0.02, 0.2, 0.5)
+GRID_STEPS_S = (1e-4, 1e-3, 1e-2)
+GRID_NOISE_TYPES = ("gaussian", "sinusoid", "poisson", "combined")
+
+
+def _grid_noise(kind: str, level: float) -> NoiseStack:
+    models = {
+        "gaussian": (Gaussian(std=level),),
+        "sinusoid": (Sinusoid(amplitude=level, frequency_hz=200.0),),
+        "poisson": (Poisson(rate=0.1, amplitude=level),),
+    }
+    if kind == "combined":
+        return NoiseStack(models["gaussian"] + models["sinusoid"] + models["poisson"])
+    return NoiseStack(models[kind])
+
+
+def grid_scenario_name(kind: str, level: float, step_s: float) -> str:
+    return f"grid-{kind}-{level:g}-{step_s * 1e3:g}ms"
+
+
+for _kind in GRID_NOISE_TYPES:
+    for _level in GRID_NOISE_LEVELS:
+        for _step in GRID_STEPS_S:
+            register_scenario(
+                Scenario(
+                    name=grid_scenario_name(_kind, _level, _step),
+                    signal=PaperSines(frequencies_hz=(4.0, 9.0, 15.0), amplitude=1.0),
+                    noise=_grid_noise(_kind, _level),
+                    dt_s=_step,
+                    duration_s=0.93,
+                    interior_margin_s=0.15,
+                    description=(
+                        f"The paper's 4/9/15 Hz signal with {_kind} noise of amplitude {_level:g}"
+                        f" (the paper's kinds: 200 Hz sinusoid, Poisson rate 0.1), sampled every "
+                        f"{_step * 1e3:g} ms for 0.93 s (not a whole number of periods)."
+                    ),
+                    preset="default",
+                )
+            )
