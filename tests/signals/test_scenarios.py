@@ -50,7 +50,10 @@ def make(**overrides):
 
 
 def test_available_scenarios_lists_the_builtins_sorted():
-    assert available_scenarios() == BUILTIN
+    names = available_scenarios()
+    assert names == sorted(names)
+    assert [n for n in names if not n.startswith("grid-")] == BUILTIN
+    assert len([n for n in names if n.startswith("grid-")]) == 36
 
 
 def test_unknown_scenario_lists_the_valid_names():
