@@ -129,6 +129,14 @@ def _pyplot():
     return plt
 
 
+def _save(fig, path: Path) -> Path:
+    """Lay out, write the PNG and free the figure."""
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    _pyplot().close(fig)
+    return path
+
+
 def write_figure1(directory: Path, seed: int = 0) -> list[Path]:
     csv = directory / "fig1_errors.csv"
     figure1_data(seed).to_csv(csv, index=False)
@@ -152,11 +160,7 @@ def write_figure1(directory: Path, seed: int = 0) -> list[Path]:
         axis.grid(alpha=0.3)
     axes[2].set_xlabel("time (s)")
     fig.suptitle(f"Fig. 1: derivative errors, paper signal and noise (seed {seed})")
-    fig.tight_layout()
-    png = directory / "fig1_errors.png"
-    fig.savefig(png, dpi=120)
-    plt.close(fig)
-    return [csv, png]
+    return [csv, _save(fig, directory / "fig1_errors.png")]
 
 
 def write_figure2(directory: Path) -> list[Path]:
@@ -182,11 +186,7 @@ def write_figure2(directory: Path) -> list[Path]:
     axis.set_title("Fig. 2: Bode magnitude of second-order differentiators (Ts = 1 ms)")
     axis.legend(fontsize=8)
     axis.grid(alpha=0.3, which="both")
-    fig.tight_layout()
-    png = directory / "fig2_bode.png"
-    fig.savefig(png, dpi=120)
-    plt.close(fig)
-    return [csv, png]
+    return [csv, _save(fig, directory / "fig2_bode.png")]
 
 
 def write_figure3(directory: Path) -> list[Path]:
@@ -209,11 +209,7 @@ def write_figure3(directory: Path) -> list[Path]:
         axis.grid(alpha=0.3, which="both")
     axes[-1].set_xlabel("frequency (Hz)")
     fig.suptitle("Fig. 3: Jacobi n = 2, parameters around κ = μ = 12, q = 6, T = 0.2 s")
-    fig.tight_layout()
-    png = directory / "fig3_parameters.png"
-    fig.savefig(png, dpi=120)
-    plt.close(fig)
-    return [csv, png]
+    return [csv, _save(fig, directory / "fig3_parameters.png")]
 
 
 def write_frequency_table(directory: Path) -> list[Path]:
@@ -277,8 +273,4 @@ def write_figure5(directory: Path, scenario_name: str = "robot-sim") -> list[Pat
         axis.grid(alpha=0.3)
     axes[-1].set_xlabel("time (s)")
     fig.suptitle(f"Fig. 5: joint 1 of `{scenario_name}` (robot presets, noise seed 0)")
-    fig.tight_layout()
-    png = directory / "fig5_robot_derivatives.png"
-    fig.savefig(png, dpi=120)
-    plt.close(fig)
-    return [csv, png]
+    return [csv, _save(fig, directory / "fig5_robot_derivatives.png")]

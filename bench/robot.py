@@ -70,29 +70,37 @@ def well_excited(scenario) -> tuple[bool, ...]:
     return tuple(bool(v) for v in result.relative_sigma_pct < 10.0)
 
 
+def _add_row(rows: list, metric: str, value, order: int = 0) -> None:
+    rows.append({"order": order, "region": "identification", "metric": metric,
+                 "value": float(value)})  # fmt: skip
+
+
+def _parameter_rows(result: Identification) -> list[dict[str, Any]]:
+    """Rows of X̂, σ_X and %σ_Xr per parameter, cond(W) and the number of equations."""
+    rows: list[dict[str, Any]] = []
+    for index, name in enumerate(result.names):
+        _add_row(rows, f"estimate.{name}", result.estimate[index])
+        _add_row(rows, f"sigma.{name}", result.sigma[index])
+        _add_row(rows, f"rel_sigma_pct.{name}", result.relative_sigma_pct[index])
+    _add_row(rows, "cond_W", result.condition)
+    _add_row(rows, "equations", result.equations)
+    return rows
+
+
 def score_identification(method: Method, scenario, seed: int) -> list[dict[str, Any]]:
     """Tidy rows of one identification cell (region ``identification``, order 0)."""
     realisation = scenario.realise(seed)
     result, (_, qd, qdd, chosen) = identify(method, realisation, scenario)
     truth = scenario.true_parameters
-    rows: list[dict[str, Any]] = []
-
-    def add(metric, value, order=0):
-        rows.append({"order": order, "region": "identification", "metric": metric,
-                     "value": float(value)})  # fmt: skip
-
+    rows = _parameter_rows(result)
+    add = functools.partial(_add_row, rows)
     for index, name in enumerate(result.names):
-        add(f"estimate.{name}", result.estimate[index])
-        add(f"sigma.{name}", result.sigma[index])
-        add(f"rel_sigma_pct.{name}", result.relative_sigma_pct[index])
         add(f"rel_error.{name}", (result.estimate[index] - truth[index]) / abs(truth[index]))
     mask = np.array(well_excited(scenario))
     add(
         "param_error_norm",
         np.linalg.norm((result.estimate - truth)[mask]) / np.linalg.norm(truth[mask]),
     )
-    add("cond_W", result.condition)
-    add("equations", result.equations)
     add("sigma_rho", result.sigma_rho)
     fresh = scenario.motion(validation=True)
     predicted = robot2r.regressor(fresh.q, fresh.qd, fresh.qdd, scenario.link1_length_m,
@@ -173,18 +181,8 @@ def score_dfki_fold(method: Method, spec: DfkiCrossValidation, held_out: int):
     predicted = parallel_decimation(observation @ result.estimate, factor)
     lab = parallel_decimation(dfki.lab_model_torques(q, qd, qdd), factor)
     predicted, lab = predicted[EDGE_SAMPLES:-EDGE_SAMPLES], lab[EDGE_SAMPLES:-EDGE_SAMPLES]
-    rows: list[dict[str, Any]] = []
-
-    def add(metric, value, order=0):
-        rows.append({"order": order, "region": "identification", "metric": metric,
-                     "value": float(value)})  # fmt: skip
-
-    for index, name in enumerate(result.names):
-        add(f"estimate.{name}", result.estimate[index])
-        add(f"sigma.{name}", result.sigma[index])
-        add(f"rel_sigma_pct.{name}", result.relative_sigma_pct[index])
-    add("cond_W", result.condition)
-    add("equations", result.equations)
+    rows = _parameter_rows(result)
+    add = functools.partial(_add_row, rows)
     active = np.any(run.tau_commanded != 0, axis=0)
     for joint in (0, 1):
         if not active[joint]:
