@@ -174,11 +174,9 @@ def no_truth_loss(x: np.ndarray, derivative: np.ndarray, dt: float, order: int,
     integral = derivative
     for _ in range(order):
         integral = integrate.cumulative_trapezoid(integral, dx=dt, initial=0.0)
-    basis = np.vander(t, order + 1)[:, ::-1][:, : order + 1]  # 1, t (, t^2 unused)
-    basis = basis[:, :order]
-    design = np.column_stack([integral, basis])
-    coefficients, *_ = np.linalg.lstsq(design[:, 1:], x - integral, rcond=None)
-    residual = x - integral - design[:, 1:] @ coefficients
+    constants = np.vander(t, order, increasing=True)  # 1 (and t): the integration constants
+    coefficients, *_ = np.linalg.lstsq(constants, x - integral, rcond=None)
+    residual = x - integral - constants @ coefficients
     rmse = float(np.sqrt(np.mean(residual**2)))
     return rmse + gamma * float(np.mean(np.abs(np.diff(derivative))))
 
