@@ -190,7 +190,14 @@ class Method:
     def frequency_response(self, frequency_hz, dt: float, order: int) -> np.ndarray:
         """Complex response :math:`H(f)` of the estimate of ``order`` at ``frequency_hz``
         (the output for :math:`e^{i2\\pi ft}` away from the ends is :math:`H(f)e^{i2\\pi ft}`);
-        the ideal is :math:`(i 2\\pi f)^n`. Linear methods only."""
+        the ideal is :math:`(i 2\\pi f)^n`. Linear methods only. Arguments are checked here,
+        then the method's ``_response(frequency_hz, dt, order)`` computes it."""
+        dt = check_dt(dt)
+        self.check_step(dt)
+        check_orders((order,))
+        return self._response(np.atleast_1d(np.asarray(frequency_hz, dtype=np.float64)), dt, order)
+
+    def _response(self, frequency_hz: np.ndarray, dt: float, order: int) -> np.ndarray:
         raise NotImplementedError(f"{self.name} is not linear: it has no frequency response")
 
     def _estimate(self, x: np.ndarray, dt: float, orders: tuple[int, ...]):
@@ -203,10 +210,7 @@ class FirMethod(Method):
     def taps(self, order: int, dt: float) -> np.ndarray:
         raise NotImplementedError
 
-    def frequency_response(self, frequency_hz, dt: float, order: int) -> np.ndarray:
-        dt = check_dt(dt)
-        self.check_step(dt)
-        check_orders((order,))
+    def _response(self, frequency_hz, dt: float, order: int) -> np.ndarray:
         return fir_response(self.taps(order, dt), frequency_hz, dt)
 
     def _estimate(self, x, dt, orders):

@@ -10,7 +10,6 @@ from scipy import signal as sps
 
 from methods._fir import apply_central_fir, fir_response
 from methods._registry import Method, Preset, param, register
-from methods._validation import check_dt, check_orders
 from methods.finite_difference import central_difference_weights
 
 
@@ -95,13 +94,9 @@ class ButterworthEuler(Method):
         # straight lines only away from the ends, where the start-up transient has decayed.
         return 0
 
-    def frequency_response(self, frequency_hz, dt: float, order: int) -> np.ndarray:
+    def _response(self, frequencies, dt: float, order: int) -> np.ndarray:
         """:math:`|B(e^{i\\theta})|^2 D_n(\\theta)`: the zero-phase filter times the central
         difference (away from the ends, where the start-up transients have decayed)."""
-        dt = check_dt(dt)
-        self.check_step(dt)
-        check_orders((order,))
-        frequencies = np.atleast_1d(np.asarray(frequency_hz, dtype=np.float64))
         _, gain = sps.sosfreqz(self._sos(dt), worN=frequencies, fs=1.0 / dt)
         difference = np.ones(1) if order == 0 else central_difference_weights(order, 2) / dt**order
         return np.abs(gain) ** 2 * fir_response(difference, frequencies, dt)

@@ -10,7 +10,6 @@ import numpy as np
 from scipy import fft as sp_fft
 
 from methods._registry import Method, Preset, param, register
-from methods._validation import check_dt, check_orders
 
 _STATIONARY = 4 * np.finfo(float).eps  # relative change of the gains that counts as none
 _SETTLED = 1e-11  # relative change accepted as converged once held for 50 m steps
@@ -307,19 +306,16 @@ class KalmanSmoother(Method):
     def model(self, dt: float) -> KalmanModel:
         return _cached_model(self.model_order, float(dt), self.bandwidth_hz)
 
-    def frequency_response(self, frequency_hz, dt: float, order: int) -> np.ndarray:
+    def _response(self, frequency_hz, dt: float, order: int) -> np.ndarray:
         """Response of the steady-state smoother (away from the ends):
         :math:`v = (I - A e^{-i\\theta})^{-1} K`, :math:`w = (I - C e^{i\\theta})^{-1}(I - CF) v`,
         :math:`H = w_n\\, n!/\\Delta t^n`, with A = (I - KH)F and the steady gains K, C."""
-        dt = check_dt(dt)
-        self.check_step(dt)
-        check_orders((order,))
         model = self.model(dt)
         gains = _steady_gains(self.model_order, float(dt), self.bandwidth_hz)
         F, m = model.F, model.states
         a_matrix = F - np.outer(gains.steady_filter, F[0])
         c_matrix = gains.steady_smoother
-        theta = 2 * np.pi * np.atleast_1d(np.asarray(frequency_hz, dtype=np.float64)) * dt
+        theta = 2 * np.pi * frequency_hz * dt
         identity = np.eye(m)[None, :, :]
         behind = np.exp(-1j * theta)[:, None, None]
         forward = np.linalg.solve(

@@ -7,7 +7,6 @@ import numpy as np
 from methods._fir import fir_response
 from methods._local_poly import local_polynomial_weights, savitzky_golay_filter, window_samples
 from methods._registry import Method, Preset, param, register
-from methods._validation import check_dt, check_orders
 from methods.finite_difference import central_difference_weights
 
 
@@ -85,11 +84,8 @@ class SindySmoothing(Method):
     def exact_degree(self, order: int) -> float | None:
         return self.degree if order == 0 else min(self.degree, self.accuracy_order + order - 1)
 
-    def frequency_response(self, frequency_hz, dt: float, order: int) -> np.ndarray:
+    def _response(self, frequency_hz, dt: float, order: int) -> np.ndarray:
         """Savitzky-Golay smoother times pysindy's central difference (interior samples)."""
-        dt = check_dt(dt)
-        self.check_step(dt)
-        check_orders((order,))
         half_width = self._samples(dt) // 2
         smoother = local_polynomial_weights(half_width, self.degree, 0, np.array([0.0]), dt)[0]
         difference = (
