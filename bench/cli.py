@@ -220,9 +220,15 @@ def _progress(enabled: bool):
     return wrap
 
 
+def _method_names(args: argparse.Namespace) -> list[str] | None:
+    """The comma-separated ``--methods``, or None for every registered method."""
+    if not args.methods:
+        return None
+    return [name.strip() for name in args.methods.split(",") if name.strip()]
+
+
 def _cmd_run(args: argparse.Namespace) -> None:
-    names = [n.strip() for n in args.methods.split(",") if n.strip()] if args.methods else None
-    cells = runner.preset_cells(args.scenario, range(args.seeds), names)
+    cells = runner.preset_cells(args.scenario, range(args.seeds), _method_names(args))
     directory = _scenario_dir(args.out, args.scenario)
     store = ResultStore(directory / "cells.csv")
     summary = _run_cells(cells, store, args)
@@ -281,7 +287,7 @@ def _cmd_identify(args: argparse.Namespace) -> None:
     from bench.robot import well_excited
     from signals import robot2r
 
-    names = [n.strip() for n in args.methods.split(",") if n.strip()] if args.methods else None
+    names = _method_names(args)
     if args.target == "dfki":
         _identify_dfki(args, names)
         return
@@ -292,17 +298,14 @@ def _cmd_identify(args: argparse.Namespace) -> None:
     summary = _run_cells(cells, store, args)
     rows = store.load()
     table = tables.identification_table(rows, robot2r.PARAMETER_NAMES, scenario.true_parameters)
-    directory.mkdir(parents=True, exist_ok=True)
-    table.to_csv(directory / "table2.csv", index=False)
-    (directory / "table2.md").write_text(tables.identification_markdown(
-        table,
+    written = tables.write_identification_table(
+        table, directory,
         f"Base parameters of `{args.scenario}` identified with each differentiator (IDIM-LS; "
         "the paper's table II layout; means over seeds)",
         "X̂: mean estimate; σ: one standard deviation σ_X from σ_ρ²(WᵀW)⁻¹ (the paper's table "
         "II column 'σ' is about 2σ); %σXr = 100 σ/|X̂|; err: (X̂ − X)/X in %, mean ± std over "
         "seeds. Robot presets of each method; L = 0.5 m.",
-    ), encoding="utf-8")  # fmt: skip
-    written = [directory / "table2.md", directory / "table2.csv"]
+    )  # fmt: skip
     mask = well_excited(scenario)
     excited = ", ".join(n for n, w in zip(robot2r.PARAMETER_NAMES, mask, strict=True) if w)
     written += tables.write_table(
@@ -336,14 +339,13 @@ def _identify_dfki(args: argparse.Namespace, names) -> None:
     )  # fmt: skip
     table = tables.identification_table(rows, dfki.PENDULUM_PARAMETER_NAMES)
     table.insert(1, "lab", dfki.lab_base_parameters())
-    table.to_csv(directory / "table2.csv", index=False)
-    (directory / "table2.md").write_text(tables.identification_markdown(
-        table.rename(columns={"lab": "true"}),
+    written += tables.write_identification_table(
+        table, directory,
         "DFKI double pendulum base parameters identified with each differentiator (mean over "
-        "the 6 leave-one-run-out fits; column 'true' holds the lab's published model)",
+        "the 6 leave-one-run-out fits; column 'lab' holds the lab's published model)",
         "X̂ (σ one standard deviation, %σXr); see signals/dfki.py for the base parameters.",
-    ), encoding="utf-8")  # fmt: skip
-    written += [directory / "table2.md", directory / "table2.csv"]
+        reference="lab",
+    )  # fmt: skip
     print(f"{summary.computed} cells computed, {summary.skipped} already stored")
     for path in written:
         print(path)

@@ -150,8 +150,8 @@ def identification_table(rows: pd.DataFrame, names, truth=None) -> pd.DataFrame:
     """The paper's table II layout: one row per parameter; per method the mean over seeds of
     X̂, of its one-sigma σ_X and of %σ_Xr, and (with ``truth``) the relative error in %
     (mean ± 95 % CI of the mean over seeds)."""
-    summary = summarise(rows).set_index([*KEYS, "metric", "region", "order"])["mean"]
-    spread = summarise(rows).set_index([*KEYS, "metric", "region", "order"])["std"]
+    indexed = summarise(rows).set_index([*KEYS, "metric", "region", "order"])
+    summary, spread = indexed["mean"], indexed["std"]
     methods_run = sorted({(m, p, s) for m, p, s, *_ in summary.index})
     records = []
     for index, name in enumerate(names):
@@ -174,15 +174,18 @@ def identification_table(rows: pd.DataFrame, names, truth=None) -> pd.DataFrame:
     return pd.DataFrame(records)
 
 
-def identification_markdown(table: pd.DataFrame, title: str, notes: str) -> str:
-    """Markdown of :func:`identification_table`: one column per method with X̂, σ, %σ_Xr
-    and the error."""
+def identification_markdown(table: pd.DataFrame, title: str, notes: str,
+                            reference: str = "true") -> str:  # fmt: skip
+    """Markdown of :func:`identification_table`: the ``reference`` column if present (the
+    truth, or a published model), then one column per method with X̂, σ, %σ_Xr and the
+    error."""
     methods_run = [c[: -len(" X̂")] for c in table.columns if c.endswith(" X̂")]
-    header = ["parameter", *(["true"] if "true" in table else []), *methods_run]
+    shown = [reference] if reference in table else []
+    header = ["parameter", *shown, *methods_run]
     lines = [f"# {title}", "", "| " + " | ".join(header) + " |",
              "|" + "|".join("---" for _ in header) + "|"]  # fmt: skip
     for _, row in table.iterrows():
-        cells = [row["parameter"]] + ([f"{row['true']:.4g}"] if "true" in table else [])
+        cells = [row["parameter"]] + [f"{row[column]:.4g}" for column in shown]
         for method in methods_run:
             text = (f"{row[f'{method} X̂']:.4g} (σ {row[f'{method} σ']:.2g}, "
                     f"{row[f'{method} %σXr']:.3g} %)")  # fmt: skip
@@ -192,6 +195,16 @@ def identification_markdown(table: pd.DataFrame, title: str, notes: str) -> str:
             cells.append(text)
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join([*lines, "", notes, ""])
+
+
+def write_identification_table(table: pd.DataFrame, directory: Path, title: str, notes: str,
+                               reference: str = "true") -> list[Path]:  # fmt: skip
+    """Write ``table2.csv`` and ``table2.md`` (see :func:`identification_markdown`)."""
+    directory.mkdir(parents=True, exist_ok=True)
+    csv, markdown = directory / "table2.csv", directory / "table2.md"
+    table.to_csv(csv, index=False)
+    markdown.write_text(identification_markdown(table, title, notes, reference), encoding="utf-8")
+    return [markdown, csv]
 
 
 DFKI_SUMMARY = [
