@@ -6,7 +6,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.diffbench-installed
 SEEDS ?= 20
 
-.PHONY: bench test lint clean-venv
+.PHONY: bench test lint check-install clean-venv
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 10) else "diffbench needs Python >= 3.10; set PYTHON=python3.x")'
@@ -32,6 +32,19 @@ lint: $(STAMP)
 
 test: lint
 	$(BIN)/python -m pytest -q --benchmark-disable
+
+# pip install . beside PyPI's `bench` 2.8 and `signals` 0.0.2 (same top-level names as our
+# folders), then `diffbench list` and the tests against that installation.
+CLASH_VENV ?= $(VENV)-clash
+check-install:
+	rm -rf $(CLASH_VENV)
+	$(PYTHON) -m venv $(CLASH_VENV)
+	$(CLASH_VENV)/bin/python -m pip install --quiet --upgrade pip
+	$(CLASH_VENV)/bin/python -m pip install --quiet 'bench==2.8' 'signals==0.0.2'
+	$(CLASH_VENV)/bin/python -m pip install --quiet '.[test]'
+	$(CLASH_VENV)/bin/diffbench list > /dev/null
+	$(CLASH_VENV)/bin/python -c 'import diffbench.signals, signals; assert signals.__file__ != diffbench.signals.__file__'
+	$(CLASH_VENV)/bin/python -m pytest -q --benchmark-disable -p no:cacheprovider
 
 clean-venv:
 	rm -rf $(VENV)

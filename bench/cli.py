@@ -12,12 +12,10 @@ import sys
 from pathlib import Path
 
 import pandas as pd
-
-import methods
-import signals
-from bench import runner, tables
-from bench.provenance import provenance
-from bench.store import ResultStore
+from diffbench import methods, signals
+from diffbench.bench import runner, tables
+from diffbench.bench.provenance import provenance
+from diffbench.bench.store import ResultStore
 
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
@@ -192,7 +190,7 @@ def _cmd_list() -> None:
     print("robot scenarios (diffbench identify sim --scenario NAME)")
     for name in signals.robot2r.available_robot_scenarios():
         print(f"  {name}: {signals.robot2r.get_robot_scenario(name).description}")
-    from bench.robot import DfkiCrossValidation
+    from diffbench.bench.robot import DfkiCrossValidation
 
     print(f"real robot (diffbench identify dfki)\n  {DfkiCrossValidation().description}")
 
@@ -248,7 +246,7 @@ def _cmd_run(args: argparse.Namespace) -> None:
 
 
 def _cmd_paper_figures(args: argparse.Namespace) -> None:
-    from bench import paper
+    from diffbench.bench import paper
 
     directory = args.out / "paper-figures"
     directory.mkdir(parents=True, exist_ok=True)
@@ -283,9 +281,9 @@ def _run_cells(cells, store: ResultStore, args: argparse.Namespace) -> runner.Ru
 
 
 def _cmd_identify(args: argparse.Namespace) -> None:
-    from bench import paper
-    from bench.robot import well_excited
-    from signals import robot2r
+    from diffbench.bench import paper
+    from diffbench.bench.robot import well_excited
+    from diffbench.signals import robot2r
 
     names = _method_names(args)
     if args.target == "dfki":
@@ -322,7 +320,7 @@ def _cmd_identify(args: argparse.Namespace) -> None:
 
 
 def _identify_dfki(args: argparse.Namespace, names) -> None:
-    from signals import dfki
+    from diffbench.signals import dfki
 
     cells = runner.preset_cells("dfki-cv", range(dfki.DFKI_RUNS), names)
     directory = args.out / "identify-dfki"
@@ -352,7 +350,7 @@ def _identify_dfki(args: argparse.Namespace, names) -> None:
 
 
 def _cmd_tune(args: argparse.Namespace) -> None:
-    from bench import tuning
+    from diffbench.bench import tuning
 
     if args.tuning_seed < args.seeds:
         raise UsageError(f"--tuning-seed {args.tuning_seed} is among the scored seeds "
@@ -395,7 +393,7 @@ def _cmd_tune(args: argparse.Namespace) -> None:
 
 
 def _cmd_grid(args: argparse.Namespace) -> None:
-    from bench import grid
+    from diffbench.bench import grid
 
     try:
         orders = tuple(int(o) for o in args.orders.split(","))
@@ -440,7 +438,7 @@ def main(argv: list[str] | None = None) -> int:
         elif args.command == "grid":
             _cmd_grid(args)
         elif args.command == "timing":
-            from bench import timing
+            from diffbench.bench import timing
 
             for path in timing.write_throughput(args.out / "timing", timing.throughput()):
                 print(path)

@@ -6,13 +6,11 @@ from __future__ import annotations
 from pathlib import Path
 
 import pandas as pd
-
-import methods
-import signals
-from bench import tuning
-from bench.runner import Cell
-from bench.stats import ranking
-from signals.scenarios import (
+from diffbench import methods, signals
+from diffbench.bench import tuning
+from diffbench.bench.runner import Cell
+from diffbench.bench.stats import ranking
+from diffbench.signals.scenarios import (
     GRID_NOISE_LEVELS,
     GRID_NOISE_TYPES,
     GRID_STEPS_S,

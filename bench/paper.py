@@ -15,11 +15,9 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-
-import methods
-import signals
-from bench.frequency import cutoff_hz, ideal_response, noise_gain
-from bench.runner import Cell
+from diffbench import methods, signals
+from diffbench.bench.frequency import cutoff_hz, ideal_response, noise_gain
+from diffbench.bench.runner import Cell
 
 DT = 1e-3
 SCENARIO = "paper-signal"
@@ -237,7 +235,7 @@ def write_frequency_table(directory: Path) -> list[Path]:
 def figure5_data(scenario_name: str = "robot-sim", seed: int = 0) -> pd.DataFrame:
     """Position, velocity and acceleration of joint 1: the truth and the estimates of the
     Jacobi and Butterworth robot presets (the paper's fig. 5, here against the exact truth)."""
-    from signals import robot2r
+    from diffbench.signals import robot2r
 
     scenario = robot2r.get_robot_scenario(scenario_name)
     realisation = scenario.realise(seed)

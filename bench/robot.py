@@ -9,15 +9,14 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-
-from bench.identification import (
+from diffbench.bench.identification import (
     Identification,
     decimation_factor,
     idim_ls,
     parallel_decimation,
 )
-from methods import Method
-from signals import robot2r
+from diffbench.methods import Method
+from diffbench.signals import robot2r
 
 EDGE_SAMPLES = 4  # decimated samples dropped at each end (start-up of the decimation filter)
 PASSBAND_PER_BANDWIDTH = 5.0  # F_p = 5 x the position-loop bandwidth (the paper's rule)
@@ -142,7 +141,7 @@ class DfkiCrossValidation:
 
 
 def _dfki_equations(method: Method, run, spec: DfkiCrossValidation):
-    from signals import dfki
+    from diffbench.signals import dfki
 
     interior = (run.t >= run.t[0] + spec.interior_margin_s) & (
         run.t <= run.t[-1] - spec.interior_margin_s
@@ -153,14 +152,14 @@ def _dfki_equations(method: Method, run, spec: DfkiCrossValidation):
 
 @functools.lru_cache(maxsize=8)
 def _dfki_run(index: int, dt_s: float):
-    from signals import dfki
+    from diffbench.signals import dfki
 
     return dfki.load_dfki_run(index, dt_s)
 
 
 def score_dfki_fold(method: Method, spec: DfkiCrossValidation, held_out: int):
     """Rows of one leave-one-run-out fold (region ``identification``)."""
-    from signals import dfki
+    from diffbench.signals import dfki
 
     if not 0 <= held_out < dfki.DFKI_RUNS:
         raise ValueError(f"the held-out run (seed) must be in 0..{dfki.DFKI_RUNS - 1}, "

@@ -14,13 +14,12 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from typing import Any
 
-import methods
-import signals
-from bench.frequency import decompose_error
-from bench.provenance import provenance
-from bench.scores import score_estimate
-from bench.store import ResultStore, canonical_params, cell_key
-from signals import robot2r
+from diffbench import methods, signals
+from diffbench.bench.frequency import decompose_error
+from diffbench.bench.provenance import provenance
+from diffbench.bench.scores import score_estimate
+from diffbench.bench.store import ResultStore, canonical_params, cell_key
+from diffbench.signals import robot2r
 
 
 @dataclass(frozen=True)
@@ -63,7 +62,7 @@ def find_scenario(name: str):
     if name in robot2r.available_robot_scenarios():
         return robot2r.get_robot_scenario(name)
     if name == "dfki-cv":
-        from bench.robot import DfkiCrossValidation
+        from diffbench.bench.robot import DfkiCrossValidation
 
         return DfkiCrossValidation()
     if name in signals.available_scenarios():
@@ -82,11 +81,11 @@ def compute_cell(cell: Cell) -> list[dict[str, Any]]:
     scenario = find_scenario(cell.scenario)
     method = methods.get(cell.method, **cell.params)
     if isinstance(scenario, robot2r.RobotScenario):
-        from bench.robot import score_identification
+        from diffbench.bench.robot import score_identification
 
         return score_identification(method, scenario, cell.seed)
     if scenario.name == "dfki-cv":
-        from bench.robot import score_dfki_fold
+        from diffbench.bench.robot import score_dfki_fold
 
         return score_dfki_fold(method, scenario, cell.seed)
     realisation = scenario.realise(cell.seed)

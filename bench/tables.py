@@ -6,8 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-
-from bench.stats import confidence_interval, ranking
+from diffbench.bench.stats import confidence_interval, ranking
 
 ORDER_LABELS = {0: "x", 1: "ẋ", 2: "ẍ"}
 REGION_LABELS = {"interior": "interior", "valid": "full"}
@@ -252,7 +251,7 @@ def write_tuning_summary(rows: pd.DataFrame, log: pd.DataFrame, directory: Path)
     on the preset is still found), the no-truth / oracle ratio, and the tuning time."""
     import json
 
-    from bench.store import canonical_params
+    from diffbench.bench.store import canonical_params
 
     chosen = rows[(rows["metric"] == "rmse") & (rows["region"] == "interior")]
     means = chosen.groupby(["method", "params", "order"])["value"].mean()

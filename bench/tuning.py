@@ -31,9 +31,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from diffbench import methods
 from scipy import integrate, optimize
-
-import methods
 
 CRITERIA = ("oracle", "no-truth", "pynumdiff")
 

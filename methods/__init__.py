@@ -2,7 +2,7 @@
 
 Every differentiator is a small frozen class registered by name::
 
-    >>> import methods
+    >>> from diffbench import methods
     >>> sg = methods.get("savitzky_golay", window_s=0.05, degree=3)
     >>> estimate = sg(x, dt=0.001)        # doctest: +SKIP
     >>> estimate[1], estimate.valid[1]    # doctest: +SKIP
@@ -12,9 +12,9 @@ specifications (``params_of``) and presets, ``preset(name, key)`` an instance at
 """
 
 # Importing the family modules registers their methods (heavy libraries load lazily).
-from methods import butterworth, finite_difference, jacobi, kalman, savitzky_golay, sindy
-from methods._fir import central_mask
-from methods._registry import (
+from diffbench.methods import butterworth, finite_difference, jacobi, kalman, savitzky_golay, sindy
+from diffbench.methods._fir import central_mask
+from diffbench.methods._registry import (
     Estimate,
     FirMethod,
     Method,
@@ -28,7 +28,7 @@ from methods._registry import (
     preset,
     register,
 )
-from methods._validation import MAX_ORDER, check_signal, uniform_step
+from diffbench.methods._validation import MAX_ORDER, check_signal, uniform_step
 
 __all__ = [
     "MAX_ORDER",

@@ -14,10 +14,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from diffbench.methods._fir import apply_central_fir
+from diffbench.methods._validation import samples_in_span
 from numpy.polynomial import legendre
-
-from methods._fir import apply_central_fir
-from methods._validation import samples_in_span
 
 
 def local_polynomial_weights(

@@ -14,9 +14,8 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
-
-from methods._fir import apply_central_fir, fir_response
-from methods._validation import check_dt, check_orders, check_signal
+from diffbench.methods._fir import apply_central_fir, fir_response
+from diffbench.methods._validation import check_dt, check_orders, check_signal
 
 _REGISTRY: dict[str, type[Method]] = {}
 

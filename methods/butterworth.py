@@ -6,11 +6,10 @@ from __future__ import annotations
 import functools
 
 import numpy as np
+from diffbench.methods._fir import apply_central_fir, fir_response
+from diffbench.methods._registry import Method, Preset, param, register
+from diffbench.methods.finite_difference import central_difference_weights
 from scipy import signal as sps
-
-from methods._fir import apply_central_fir, fir_response
-from methods._registry import Method, Preset, param, register
-from methods.finite_difference import central_difference_weights
 
 
 @functools.lru_cache(maxsize=256)

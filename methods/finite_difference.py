@@ -5,8 +5,7 @@ from __future__ import annotations
 from math import factorial, inf
 
 import numpy as np
-
-from methods._registry import FirMethod, Preset, param, register
+from diffbench.methods._registry import FirMethod, Preset, param, register
 
 
 def central_difference_weights(order: int, accuracy: int) -> np.ndarray:

@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
-
-from methods._registry import FirMethod, Preset, param, register
-from methods.jacobi_kernel import RULES, fir_weights, half_width
+from diffbench.methods._registry import FirMethod, Preset, param, register
+from diffbench.methods.jacobi_kernel import RULES, fir_weights, half_width
 
 
 @register("jacobi")

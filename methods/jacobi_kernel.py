@@ -148,7 +148,7 @@ def kernel(tau, order: int, kappa: float, mu: float, q: int) -> np.ndarray:
 def half_width(window_s: float, dt: float, name: str = "window_s") -> int:
     """M such that ``window_s = 2M·dt`` (node convention); ``ValueError`` naming ``name`` if
     ``window_s / dt`` is not an even whole number within 1e-9 relative."""
-    from methods._validation import samples_in_span
+    from diffbench.methods._validation import samples_in_span
 
     return samples_in_span(name, window_s, dt, odd=True) // 2
 
@@ -192,7 +192,7 @@ def _fir_weights(order, kappa, mu, q, m, dt, rule):
     elif rule == "linear":
         taps = _linear_rule(order, kappa, mu, q, m)
     else:
-        from methods._local_poly import local_polynomial_weights
+        from diffbench.methods._local_poly import local_polynomial_weights
 
         with np.errstate(divide="ignore"):
             sample_weights = (1 - nodes) ** mu * (1 + nodes) ** kappa

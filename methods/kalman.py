@@ -7,9 +7,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from diffbench.methods._registry import Method, Preset, param, register
 from scipy import fft as sp_fft
-
-from methods._registry import Method, Preset, param, register
 
 _STATIONARY = 4 * np.finfo(float).eps  # relative change of the gains that counts as none
 _SETTLED = 1e-11  # relative change accepted as converged once held for 50 m steps

@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
-
-from methods._local_poly import local_polynomial_weights, savitzky_golay_filter, window_samples
-from methods._registry import FirMethod, Preset, param, register
+from diffbench.methods._local_poly import (
+    local_polynomial_weights,
+    savitzky_golay_filter,
+    window_samples,
+)
+from diffbench.methods._registry import FirMethod, Preset, param, register
 
 
 @register("savitzky_golay")

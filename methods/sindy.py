@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import numpy as np
-
-from methods._fir import fir_response
-from methods._local_poly import local_polynomial_weights, savitzky_golay_filter, window_samples
-from methods._registry import Method, Preset, param, register
-from methods.finite_difference import central_difference_weights
+from diffbench.methods._fir import fir_response
+from diffbench.methods._local_poly import (
+    local_polynomial_weights,
+    savitzky_golay_filter,
+    window_samples,
+)
+from diffbench.methods._registry import Method, Preset, param, register
+from diffbench.methods.finite_difference import central_difference_weights
 
 
 @register("sindy_smoothing")

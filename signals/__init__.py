@@ -7,8 +7,8 @@ This package imports only NumPy, SciPy and the standard library; its only I/O is
 recordings packaged with it (``signals/data``, BSD-3, licence beside the data).
 """
 
-from signals import dfki, robot2r
-from signals.clean import (
+from diffbench.signals import dfki, robot2r
+from diffbench.signals.clean import (
     Chirp,
     DampedOscillation,
     PaperSines,
@@ -20,8 +20,15 @@ from signals.clean import (
     register_signal,
     signal_class,
 )
-from signals.noise import Gaussian, NoiseModel, NoiseStack, Poisson, Quantisation, Sinusoid
-from signals.scenarios import (
+from diffbench.signals.noise import (
+    Gaussian,
+    NoiseModel,
+    NoiseStack,
+    Poisson,
+    Quantisation,
+    Sinusoid,
+)
+from diffbench.signals.scenarios import (
     Realisation,
     Scenario,
     available_scenarios,

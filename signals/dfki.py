@@ -99,8 +99,7 @@ from importlib.resources import files
 from typing import TYPE_CHECKING
 
 import numpy as np
-
-from signals._checks import check_real, check_samples, check_times, read_only
+from diffbench.signals._checks import check_real, check_samples, check_times, read_only
 
 if TYPE_CHECKING:  # Python >= 3.11; annotations only
     from importlib.resources.abc import Traversable
@@ -168,7 +167,7 @@ _COLUMNS = (
 
 def _data_file(name: str) -> Traversable:
     """The packaged data file ``name`` (works from a source tree, a wheel or a zip)."""
-    folder = files("signals")
+    folder = files("diffbench.signals")
     for part in _DATA:
         folder = folder / part
     return folder / name

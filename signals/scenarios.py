@@ -16,10 +16,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
-from signals._checks import check_real, check_seed, check_times, read_only
-from signals.clean import Chirp, DampedOscillation, PaperSines, Polynomial, Signal, Truth
-from signals.noise import Gaussian, NoiseStack, Poisson, Quantisation, Sinusoid
+from diffbench.signals._checks import check_real, check_seed, check_times, read_only
+from diffbench.signals.clean import Chirp, DampedOscillation, PaperSines, Polynomial, Signal, Truth
+from diffbench.signals.noise import Gaussian, NoiseStack, Poisson, Quantisation, Sinusoid
 
 _STEPS_RTOL = 1e-9
 """Relative tolerance on ``duration_s / dt_s`` being a whole number of steps."""

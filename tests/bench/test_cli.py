@@ -1,8 +1,7 @@
 """The CLI, called in-process through main([...])."""
 
 import pytest
-
-from bench.cli import main
+from diffbench.bench.cli import main
 
 
 def test_list_shows_methods_parameters_presets_signals_and_scenarios(capsys):
@@ -64,7 +63,7 @@ def test_bad_input_is_one_line_and_exit_code_2(argv, message, capsys, tmp_path):
 
 
 def test_ctrl_c_keeps_finished_cells_and_exits_130(tmp_path, capsys, monkeypatch):
-    from bench import runner
+    from diffbench.bench import runner
 
     real = runner.compute_cell
     calls = []

@@ -2,11 +2,9 @@
 
 import numpy as np
 import pytest
+from diffbench import methods, signals
+from diffbench.bench.frequency import cutoff_hz, decompose_error, noise_gain, relative_response
 from scipy import optimize
-
-import methods
-import signals
-from bench.frequency import cutoff_hz, decompose_error, noise_gain, relative_response
 
 DT = 1e-3
 

@@ -3,10 +3,9 @@
 import numpy as np
 import pandas as pd
 import pytest
-
-import signals
-from bench import grid
-from signals.scenarios import GRID_NOISE_LEVELS, GRID_NOISE_TYPES, GRID_STEPS_S
+from diffbench import signals
+from diffbench.bench import grid
+from diffbench.signals.scenarios import GRID_NOISE_LEVELS, GRID_NOISE_TYPES, GRID_STEPS_S
 
 
 def test_grid_has_every_noise_type_level_and_step():

@@ -2,13 +2,12 @@
 
 import numpy as np
 import pytest
-
-import methods
-from bench import robot
-from bench.cli import main
-from bench.identification import decimation_factor, idim_ls, parallel_decimation
-from bench.runner import Cell, compute_cell
-from signals import robot2r
+from diffbench import methods
+from diffbench.bench import robot
+from diffbench.bench.cli import main
+from diffbench.bench.identification import decimation_factor, idim_ls, parallel_decimation
+from diffbench.bench.runner import Cell, compute_cell
+from diffbench.signals import robot2r
 
 NAMES = robot2r.PARAMETER_NAMES
 
@@ -123,7 +122,7 @@ def test_identify_cli_writes_the_tables_and_rejects_an_unknown_method(tmp_path, 
 def test_dfki_leave_one_run_out_predicts_measured_torque(tmp_path):
     """Real data: the model identified on five runs predicts the sixth run's measured torque
     about as well as the lab's published model (both well below the torque's own RMS)."""
-    from bench.robot import DfkiCrossValidation, score_dfki_fold
+    from diffbench.bench.robot import DfkiCrossValidation, score_dfki_fold
 
     method, _ = methods.preset("savitzky_golay", "robot")
     rows = {r["metric"]: r["value"] for r in score_dfki_fold(method, DfkiCrossValidation(), 2)}
@@ -138,7 +137,7 @@ def test_dfki_leave_one_run_out_predicts_measured_torque(tmp_path):
 
 
 def test_dfki_passive_joints_are_not_scored():
-    from bench.robot import DfkiCrossValidation, score_dfki_fold
+    from diffbench.bench.robot import DfkiCrossValidation, score_dfki_fold
 
     method = methods.get("finite_difference")
     metrics = {r["metric"] for r in score_dfki_fold(method, DfkiCrossValidation(), 3)}

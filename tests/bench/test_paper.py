@@ -3,9 +3,8 @@
 import numpy as np
 import pandas as pd
 import pytest
-
-from bench import paper, runner
-from bench.cli import main
+from diffbench.bench import paper, runner
+from diffbench.bench.cli import main
 
 
 def test_figure2_gives_the_published_value_at_15_hz():

@@ -9,9 +9,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from bench import runner, tables
-from bench.store import COLUMNS, ResultStore
+from diffbench.bench import runner, tables
+from diffbench.bench.store import COLUMNS, ResultStore
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -128,7 +127,7 @@ def test_killed_process_resumes_to_the_same_table(tmp_path):
     command = [
         sys.executable,
         "-m",
-        "bench",
+        "diffbench.bench",
         "run",
         "paper-signal",
         "--seeds",

@@ -2,9 +2,8 @@
 
 import numpy as np
 import pytest
-
-from bench.scores import error_metrics, score_estimate
-from methods import Estimate
+from diffbench.bench.scores import error_metrics, score_estimate
+from diffbench.methods import Estimate
 
 
 def test_error_metrics_by_hand():

@@ -3,9 +3,8 @@
 import numpy as np
 import pandas as pd
 import pytest
+from diffbench.bench.stats import confidence_interval, paired_comparison, ranking
 from scipy import stats
-
-from bench.stats import confidence_interval, paired_comparison, ranking
 
 
 def test_confidence_interval_by_hand():

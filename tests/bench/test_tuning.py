@@ -4,18 +4,16 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
-
-import methods
-import signals
-from bench import tuning
-from bench.cli import main
-from methods import Method, Preset, param, register
+from diffbench import methods, signals
+from diffbench.bench import tuning
+from diffbench.bench.cli import main
+from diffbench.methods import Method, Preset, param, register
 
 
 @pytest.fixture(scope="module", autouse=True)
 def _test_methods():
     """Two test-only methods with known optima, registered for this module only."""
-    from methods import _registry
+    from diffbench.methods import _registry
 
     @register("_test_gain")
     class _Gain(Method):
@@ -147,7 +145,7 @@ def test_tune_cli_tunes_on_one_seed_and_scores_on_others(tmp_path, capsys):
     args = ["tune", "savitzky_golay", "paper-signal", "--oracle", "--order", "1", "--seeds",
             "3", "--out", str(tmp_path), "--no-progress"]  # fmt: skip
     assert main(args) == 0
-    from bench.store import ResultStore
+    from diffbench.bench.store import ResultStore
 
     rows = ResultStore(tmp_path / "paper-signal" / "cells.csv").load()
     assert set(rows["seed"]) == {0, 1, 2}  # the tuning seed 10000 is never scored

@@ -1,8 +1,7 @@
 """Method instances every contract test runs on: defaults, each preset, and extra settings."""
 
 import pytest
-
-import methods
+from diffbench import methods
 
 EXTRA = {
     "finite_difference": [{"accuracy_order": 4}, {"accuracy_order": 6}],

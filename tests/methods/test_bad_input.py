@@ -4,9 +4,8 @@ import math
 
 import numpy as np
 import pytest
-
-import methods
-from methods import uniform_step
+from diffbench import methods
+from diffbench.methods import uniform_step
 
 DT = 1e-3
 GOOD = np.sin(np.linspace(0, 3, 600))

@@ -2,16 +2,15 @@
 
 import numpy as np
 import pytest
-from scipy import signal as sps
-from scipy import special
-
-import methods
-from methods.jacobi_kernel import (
+from diffbench import methods
+from diffbench.methods.jacobi_kernel import (
     continuous_response,
     fir_weights,
     jacobi_polynomials,
     kernel,
 )
+from scipy import signal as sps
+from scipy import special
 
 
 def _weighted_least_squares(order, kappa, mu, q, func):

@@ -2,9 +2,13 @@
 
 import numpy as np
 import pytest
-
-import methods
-from methods.kalman import covariance_recursion, initial_state, polynomial_model, rts_smooth
+from diffbench import methods
+from diffbench.methods.kalman import (
+    covariance_recursion,
+    initial_state,
+    polynomial_model,
+    rts_smooth,
+)
 
 
 def _filterpy(z, model, mean0, covariance0):

@@ -3,11 +3,10 @@ response of the paper's test signal."""
 
 import numpy as np
 import pytest
+from diffbench import methods
+from diffbench.methods._local_poly import local_polynomial_weights
+from diffbench.methods.finite_difference import central_difference_weights
 from scipy import signal as sps
-
-import methods
-from methods._local_poly import local_polynomial_weights
-from methods.finite_difference import central_difference_weights
 
 DT = 1e-3
 

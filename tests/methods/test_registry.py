@@ -4,9 +4,8 @@ import math
 
 import numpy as np
 import pytest
-
-import methods
-from methods import Method, Preset, param, register
+from diffbench import methods
+from diffbench.methods import Method, Preset, param, register
 
 EXPECTED = {"butterworth", "finite_difference", "savitzky_golay", "sindy_smoothing"}
 

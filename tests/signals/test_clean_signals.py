@@ -5,12 +5,8 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given
-from hypothesis import strategies as st
-from numpy.polynomial import Polynomial as NumpyPolynomial
-
-import signals
-from signals import (
+from diffbench import signals
+from diffbench.signals import (
     Chirp,
     DampedOscillation,
     PaperSines,
@@ -23,6 +19,9 @@ from signals import (
     register_signal,
     signal_class,
 )
+from hypothesis import given
+from hypothesis import strategies as st
+from numpy.polynomial import Polynomial as NumpyPolynomial
 
 BUILTIN = ["chirp", "damped_oscillation", "paper_sines", "polynomial"]
 

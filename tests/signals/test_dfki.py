@@ -11,9 +11,7 @@ from importlib.resources import files
 
 import numpy as np
 import pytest
-from scipy.signal import butter, sosfiltfilt
-
-from signals.dfki import (
+from diffbench.signals.dfki import (
     DFKI_RUNS,
     PENDULUM_PARAMETER_NAMES,
     DfkiRun,
@@ -25,8 +23,9 @@ from signals.dfki import (
     pendulum_regressor,
     resample_uniform,
 )
+from scipy.signal import butter, sosfiltfilt
 
-DATA = files("signals") / "data" / "dfki_double_pendulum"
+DATA = files("diffbench.signals") / "data" / "dfki_double_pendulum"
 RAW_ROWS = (4993, 4974, 4979, 4993, 4999, 4997)  # data rows of trajectory_00..05.csv
 
 

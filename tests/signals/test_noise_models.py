@@ -5,8 +5,7 @@ import math
 
 import numpy as np
 import pytest
-
-from signals import Gaussian, NoiseStack, Poisson, Quantisation, Sinusoid
+from diffbench.signals import Gaussian, NoiseStack, Poisson, Quantisation, Sinusoid
 
 N = 200_000
 T = np.arange(N) * 1e-3

@@ -4,8 +4,7 @@ import math
 
 import numpy as np
 import pytest
-
-from signals import robot2r
+from diffbench.signals import robot2r
 
 L = robot2r.LINK1_LENGTH_M
 X = robot2r.PAPER_PARAMETERS

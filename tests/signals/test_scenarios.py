@@ -5,8 +5,7 @@ import math
 
 import numpy as np
 import pytest
-
-from signals import (
+from diffbench.signals import (
     Chirp,
     DampedOscillation,
     Gaussian,
@@ -22,7 +21,7 @@ from signals import (
     get_scenario,
     register_scenario,
 )
-from signals import scenarios as scenarios_module
+from diffbench.signals import scenarios as scenarios_module
 
 BUILTIN = [
     "chirp-gaussian",

@@ -7,9 +7,8 @@ asserted.
 
 import numpy as np
 import pytest
-
-import methods
-from methods.kalman import initial_state
+from diffbench import methods
+from diffbench.methods.kalman import initial_state
 
 DT = 1e-3
 

@@ -7,8 +7,7 @@ Seeded input, warmed up; the result is checked after timing; no wall-clock time 
 
 import numpy as np
 import pytest
-
-import methods
+from diffbench import methods
 
 DT = 1e-3
 SIZES = [10_000, 100_000, 1_000_000]
