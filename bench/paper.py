@@ -54,7 +54,7 @@ def figure1_data(seed: int = 0) -> pd.DataFrame:
     realisation = signals.get_scenario(SCENARIO).realise(seed)
     frame = {"t_s": realisation.t, "x_noisy": realisation.x, "x_true": realisation.truth[0]}
     for name in ("jacobi", "butterworth"):
-        method, _ = methods.preset(name, "paper-signal")
+        method = methods.preset(name, "paper-signal")
         estimate = method(realisation.x, realisation.dt_s)
         for order, label in ((1, "velocity"), (2, "acceleration")):
             frame[f"{name}_{label}_error"] = estimate[order] - realisation.truth[order]
@@ -65,7 +65,7 @@ def figure2_data() -> pd.DataFrame:
     """|H(f)| in dB of the paper's second-order differentiators and of the ideal s²."""
     frame = {"frequency_hz": FREQUENCIES_HZ, "ideal_db": _db(ideal_response(FREQUENCIES_HZ, 2))}
     for name in ("jacobi", "butterworth"):
-        method, _ = methods.preset(name, "paper-signal")
+        method = methods.preset(name, "paper-signal")
         frame[f"{name}_db"] = _db(method.frequency_response(FREQUENCIES_HZ, DT, 2))
     return pd.DataFrame(frame)
 
@@ -89,7 +89,8 @@ def frequency_table(dt: float = DT, probe_hz: float = 15.0) -> pd.DataFrame:
     to the ideal), white-noise gain, and |H| at ``probe_hz`` against the ideal, in dB."""
     records = []
     for name in methods.available():
-        method, source = methods.preset(name, "paper-signal")
+        method = methods.preset(name, "paper-signal")
+        source = methods.preset_spec(name, "paper-signal").source
         if not method.linear:
             continue
         for order in (1, 2):
@@ -107,7 +108,7 @@ def frequency_table(dt: float = DT, probe_hz: float = 15.0) -> pd.DataFrame:
 
 def influence_cells(seeds) -> list[Cell]:
     """Cells of the Jacobi variants of table I on the paper scenario."""
-    base, _ = methods.preset("jacobi", "paper-signal")
+    base = methods.preset("jacobi", "paper-signal")
     cells = []
     for seed in seeds:
         for change in INFLUENCE_VARIANTS:
@@ -172,7 +173,7 @@ def write_figure2(directory: Path) -> list[Path]:
     axis.semilogx(data["frequency_hz"], data["ideal_db"], "r--", label="ideal s²")
     at15 = {name: float(np.interp(np.log(15.0), np.log(data["frequency_hz"]), data[f"{name}_db"]))
             for name in ("jacobi", "butterworth", "ideal")}  # fmt: skip
-    method, _ = methods.preset("jacobi", "paper-signal")
+    method = methods.preset("jacobi", "paper-signal")
     exact15 = float(_db(method.frequency_response([15.0], DT, 2))[0])
     axis.plot([15.0], [exact15], "ko")
     axis.annotate(f"central Jacobi at 15 Hz: {exact15:.2f} dB\n(ideal {at15['ideal']:.2f} dB; "
@@ -246,7 +247,7 @@ def figure5_data(scenario_name: str = "robot-sim", seed: int = 0) -> pd.DataFram
         "qdd1_true": realisation.truth.qdd[:, 0],
     }
     for name in ("jacobi", "butterworth"):
-        method, _ = methods.preset(name, "robot")
+        method = methods.preset(name, "robot")
         estimate = method(realisation.q, realisation.dt_s)
         frame[f"qd1_{name}"] = estimate[1][:, 0]
         frame[f"qdd1_{name}"] = estimate[2][:, 0]

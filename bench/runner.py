@@ -48,8 +48,9 @@ def preset_cells(
     names = list(method_names) if method_names else methods.available()
     instances = []
     for name in names:
-        instance, source = methods.preset(name, chosen.preset)
-        instances.append((name, instance.params(), f"{chosen.preset}: {source}"))
+        key = chosen.preset if chosen.preset in methods.method_class(name).presets else "default"
+        source = methods.preset_spec(name, key).source
+        instances.append((name, methods.preset(name, key).params(), f"{chosen.preset}: {source}"))
     return [
         Cell(method=name, params=params, scenario=scenario, seed=int(seed), preset=source)
         for seed in seeds

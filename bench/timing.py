@@ -18,7 +18,7 @@ def throughput(sizes=(10_000, 100_000, 1_000_000), repeats: int = 3) -> pd.DataF
     sample from the smallest to the largest size (1 = linear)."""
     records = []
     for name in methods.available():
-        method, _ = methods.preset(name, "paper-signal")
+        method = methods.preset(name, "paper-signal")
         method(np.zeros(5000), DT)  # warm-up: lazy imports, kernel caches
         times = {}
         for size in sizes:

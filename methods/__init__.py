@@ -15,6 +15,7 @@ specifications (``params_of``) and presets, ``preset(name, key)`` an instance at
 from diffbench.methods import butterworth, finite_difference, jacobi, kalman, savitzky_golay, sindy
 from diffbench.methods._fir import central_mask
 from diffbench.methods._registry import (
+    DEFAULT_PRESET,
     Estimate,
     FirMethod,
     Method,
@@ -26,11 +27,13 @@ from diffbench.methods._registry import (
     param,
     params_of,
     preset,
+    preset_spec,
     register,
 )
 from diffbench.methods._validation import MAX_ORDER, check_signal, uniform_step
 
 __all__ = [
+    "DEFAULT_PRESET",
     "MAX_ORDER",
     "Estimate",
     "FirMethod",
@@ -49,6 +52,7 @@ __all__ = [
     "param",
     "params_of",
     "preset",
+    "preset_spec",
     "register",
     "savitzky_golay",
     "sindy",

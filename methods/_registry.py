@@ -94,10 +94,18 @@ def param(default: Any, **spec: Any) -> Any:
 
 @dataclass(frozen=True)
 class Preset:
-    """A named set of hyperparameter values with where it comes from."""
+    """A named set of hyperparameter values, who chose them (``by``: ``"paper"`` for the seed
+    paper's settings, ``"diffbench"`` for ours, ``"defaults"`` for the class defaults) and
+    where they come from (``source``, one line)."""
 
     values: Mapping[str, Any]
     source: str
+    by: str = "diffbench"
+
+    @property
+    def label(self) -> str:
+        """How tables name a row at this preset: ``preset (paper)``, ``preset (diffbench)``."""
+        return "class defaults" if self.by == "defaults" else f"preset ({self.by})"
 
 
 @dataclass(frozen=True)
@@ -285,13 +293,27 @@ def get(name: str, **params: Any) -> Method:
     return cls(**params)
 
 
-def preset(name: str, key: str) -> tuple[Method, str]:
-    """Method ``name`` with its preset ``key`` and the preset's source.
+DEFAULT_PRESET = "default"
+"""The preset key every method has: its class defaults."""
 
-    A method without that preset gets its class defaults (source ``"class defaults"``).
+
+def preset_spec(name: str, key: str) -> Preset:
+    """The :class:`Preset` ``key`` of method ``name``; ``"default"`` is the class defaults.
+
+    Raises ``ValueError`` listing the method's preset keys if it has no preset ``key`` (a
+    misspelt key is an error, never silently the defaults).
     """
     cls = method_class(name)
-    chosen = cls.presets.get(key)
-    if chosen is None:
-        return cls(), "class defaults"
-    return cls(**chosen.values), chosen.source
+    if key == DEFAULT_PRESET:
+        defaults = {spec.name: spec.default for spec in params_of(cls)}
+        return Preset(defaults, "the class defaults", by="defaults")
+    try:
+        return cls.presets[key]
+    except KeyError:
+        known = ", ".join([*sorted(cls.presets), DEFAULT_PRESET])
+        raise ValueError(f"method {name!r} has no preset {key!r}; available: {known}") from None
+
+
+def preset(name: str, key: str) -> Method:
+    """Method ``name`` at its preset ``key`` (see :func:`preset_spec`)."""
+    return method_class(name)(**preset_spec(name, key).values)

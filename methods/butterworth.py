@@ -63,9 +63,9 @@ class ButterworthEuler(Method):
     )
 
     presets = {
-        "paper-signal": Preset({"order": 6, "cutoff_hz": 25.0}, "paper, sec. III.C"),
+        "paper-signal": Preset({"order": 6, "cutoff_hz": 25.0}, "paper, sec. III.C", by="paper"),
         "robot": Preset(
-            {"order": 4, "cutoff_hz": 5.0}, "paper, sec. IV: 0.1 * fs/2 at fs = 100 Hz"
+            {"order": 4, "cutoff_hz": 5.0}, "paper, sec. IV: 0.1 * fs/2 at fs = 100 Hz", by="paper"
         ),
     }
     reference = "Guo et al., AIM 2015"

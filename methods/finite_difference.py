@@ -69,8 +69,11 @@ class FiniteDifference(FirMethod):
         "paper-signal": Preset(
             {"accuracy_order": 2},
             "the paper's central Euler differences, without the Butterworth filter",
+            by="paper",
         ),
-        "robot": Preset({"accuracy_order": 2}, "central Euler differences, unfiltered"),
+        "robot": Preset(
+            {"accuracy_order": 2}, "the paper's central Euler differences, unfiltered", by="paper"
+        ),
     }
     reference = "Fornberg (1988)"
 

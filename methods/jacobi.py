@@ -104,6 +104,7 @@ class Jacobi(FirMethod):
                 "rule": "trapezoid",
             },
             "paper, sec. III.C",
+            by="paper",
         ),
         "robot": Preset(
             {
@@ -115,6 +116,7 @@ class Jacobi(FirMethod):
                 "rule": "trapezoid",
             },
             "paper, sec. IV (velocity T = 0.6 s, acceleration T = 1.1 s)",
+            by="paper",
         ),
     }
     reference = "Liu et al. (2011); Guo et al., AIM 2015"

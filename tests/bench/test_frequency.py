@@ -16,7 +16,7 @@ DT = 1e-3
 def test_noise_gain_equals_the_energy_of_the_impulse_response(name, order):
     """The output of a unit impulse in the middle of a long zero signal is the impulse
     response; for white noise of unit variance the output variance is its energy."""
-    method, _ = methods.preset(name, "paper-signal")
+    method = methods.preset(name, "paper-signal")
     impulse = np.zeros(8001)
     impulse[4000] = 1.0
     response = method(impulse, DT, orders=(order,))[order]
@@ -42,7 +42,7 @@ def test_butterworth_relative_response_at_its_cutoff_is_one_half():
 
 def test_error_decomposition_adds_up_pointwise():
     realisation = signals.get_scenario("paper-signal").realise(4)
-    method, _ = methods.preset("jacobi", "paper-signal")
+    method = methods.preset("jacobi", "paper-signal")
     for order in (1, 2):
         parts = decompose_error(method, realisation, order)
         mask = realisation.interior
@@ -71,7 +71,7 @@ def test_bias_of_jacobi_on_the_clean_paper_signal_matches_its_response():
     """On the clean paper signal the bias is sum_f Im((H(f) - (i w)^n) e^{i w t}): its RMS over
     the interior equals the RMS of that predicted error."""
     realisation = signals.get_scenario("paper-signal").realise(0)
-    method, _ = methods.preset("jacobi", "paper-signal")
+    method = methods.preset("jacobi", "paper-signal")
     t = realisation.t
     mask = realisation.interior
     for order in (1, 2):

@@ -62,7 +62,7 @@ def test_sigma_is_one_standard_deviation(scenario):
 
 def test_every_method_identifies_the_well_excited_parameters_within_a_few_percent(scenario):
     for name in methods.available():
-        rows = compute_cell(Cell(name, methods.preset(name, "robot")[0].params(),
+        rows = compute_cell(Cell(name, methods.preset(name, "robot").params(),
                                  "robot-sim-short", 0))  # fmt: skip
         values = {row["metric"]: row["value"] for row in rows if row["order"] == 0}
         assert values["param_error_norm"] < 0.05, name
@@ -124,7 +124,7 @@ def test_dfki_leave_one_run_out_predicts_measured_torque(tmp_path):
     about as well as the lab's published model (both well below the torque's own RMS)."""
     from diffbench.bench.robot import DfkiCrossValidation, score_dfki_fold
 
-    method, _ = methods.preset("savitzky_golay", "robot")
+    method = methods.preset("savitzky_golay", "robot")
     rows = {r["metric"]: r["value"] for r in score_dfki_fold(method, DfkiCrossValidation(), 2)}
     for joint in (1, 2):
         ours, lab = rows[f"torque_rmse.joint{joint}"], rows[f"lab_torque_rmse.joint{joint}"]

@@ -88,7 +88,7 @@ def test_tuned_parameters_lie_in_the_declared_ranges_and_beat_or_match_the_prese
                 assert low - 1e-12 <= value <= spec.tune_high + 1e-3
     # scored on other seeds, the tuned method is no worse than its preset on average
     tuned = methods.get(name, **result.params)
-    preset, _ = methods.preset(name, "paper-signal")
+    preset = methods.preset(name, "paper-signal")
     errors = {"tuned": [], "preset": []}
     for seed in range(3):
         realisation = scenario.realise(seed)

@@ -41,7 +41,7 @@ ALL = ["butterworth", "finite_difference", "savitzky_golay", "sindy_smoothing"]
     ],
 )
 def test_bad_signals_and_steps(name, x, dt, message):
-    method, _ = methods.preset(name, "paper-signal")
+    method = methods.preset(name, "paper-signal")
     with pytest.raises(ValueError, match=message):
         method(x, dt)
 

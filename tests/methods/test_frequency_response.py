@@ -33,7 +33,7 @@ def test_response_matches_the_time_domain_on_sinusoids(name, params):
 
 @pytest.mark.parametrize("name", ["finite_difference", "savitzky_golay", "jacobi"])
 def test_fir_response_is_real_times_i_to_the_n_for_symmetric_taps(name):
-    method, _ = methods.preset(name, "paper-signal")
+    method = methods.preset(name, "paper-signal")
     frequencies = np.linspace(0.5, 400, 50)
     for order in (1, 2):
         response = method.frequency_response(frequencies, DT, order)

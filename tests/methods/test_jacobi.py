@@ -153,7 +153,7 @@ def test_paper_settings_give_the_published_gain_at_15_hz():
     assert abs(continuous_response(1, 12.0, 12.0, 6, 0.21, 15.0)[0]) == pytest.approx(
         0.9535, abs=5e-4
     )
-    taps = methods.preset("jacobi", "paper-signal")[0].taps(2, 1e-3)
+    taps = methods.preset("jacobi", "paper-signal").taps(2, 1e-3)
     theta = 2 * np.pi * 15 * 1e-3
     response = np.sum(taps * np.exp(1j * theta * np.arange(-105, 106)))
     decibels = 20 * np.log10(abs(response))

@@ -161,7 +161,7 @@ def test_noiseless_paper_signal_error_equals_the_predicted_response(name):
     e(t) = sum Im((H(f) - (i 2 pi f)^n) e^{i 2 pi f t}) and is bounded by
     sum |H(f) - (i 2 pi f)^n|: both are checked (Butterworth 1 s away from the ends, where
     its start-up transient has decayed below 1e-9)."""
-    method, _ = methods.preset(name, "paper-signal")
+    method = methods.preset(name, "paper-signal")
     params = method.params()
     t = np.arange(3001) * DT
     x = sum(np.sin(2 * np.pi * f * t) for f in FREQUENCIES_HZ)

@@ -106,13 +106,24 @@ def test_methods_are_frozen():
         method.accuracy_order = 4
 
 
-def test_preset_falls_back_to_class_defaults():
-    method, source = methods.preset("savitzky_golay", "no-such-preset")
-    assert source == "class defaults"
-    assert method == methods.get("savitzky_golay")
-    method, source = methods.preset("butterworth", "robot")
+def test_preset_returns_an_instance_and_its_spec_says_where_it_comes_from():
+    method = methods.preset("butterworth", "robot")
+    assert isinstance(method, methods.method_class("butterworth"))
     assert (method.order, method.cutoff_hz) == (4, 5.0)
-    assert "sec. IV" in source
+    spec = methods.preset_spec("butterworth", "robot")
+    assert "sec. IV" in spec.source and spec.label == "preset (paper)"
+    assert methods.preset_spec("kalman", "paper-signal").label == "preset (diffbench)"
+
+
+def test_default_preset_is_the_class_defaults():
+    assert methods.preset("savitzky_golay", "default") == methods.get("savitzky_golay")
+    assert methods.preset_spec("savitzky_golay", "default").label == "class defaults"
+
+
+def test_misspelt_preset_is_an_error_listing_the_keys():
+    with pytest.raises(ValueError, match=r"no preset 'paper-sginal'; available: paper-signal, "
+                       r"robot, default"):  # fmt: skip
+        methods.preset("jacobi", "paper-sginal")
 
 
 def test_estimate_rejects_nan_on_valid_samples():

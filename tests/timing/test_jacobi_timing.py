@@ -21,7 +21,7 @@ def samples():
 
 @pytest.fixture(scope="module")
 def jacobi():
-    method, _ = methods.preset("jacobi", "paper-signal")
+    method = methods.preset("jacobi", "paper-signal")
     return method
 
 

@@ -20,7 +20,7 @@ def _signal(size):
 
 @pytest.fixture(scope="module")
 def kalman():
-    method, _ = methods.preset("kalman", "paper-signal")
+    method = methods.preset("kalman", "paper-signal")
     return method
 
 
