@@ -1,28 +1,47 @@
 """The ``diffbench`` command line: a thin layer over the Python API.
 
-User errors print one line on stderr and exit with code 2 (never a traceback); an interrupted
-run keeps every finished cell and exits with code 130; the same command resumes it.
+Exit codes: 0 done; 2 a usage error (bad input: one line on stderr, never a traceback); 1 an
+internal error (its traceback: a bug, never disguised as a usage error); 130 interrupted by
+Ctrl-C, 143 by SIGTERM (every finished result is stored; the same command resumes; no worker
+process is left behind); 141 when the reader of the output went away (``diffbench list | head``).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
+import contextlib
+import math
+import os
 import sys
+from importlib import metadata
 from pathlib import Path
 
-import pandas as pd
-from diffbench import methods, signals
-from diffbench.bench import runner, tables
+from diffbench import methods
+from diffbench.bench import runner
+from diffbench.bench.executor import Terminated, terminate_on_sigterm
 from diffbench.bench.provenance import provenance
-from diffbench.bench.store import ResultStore
+from diffbench.bench.store import Store, set_command
+from diffbench.bench.tasks import available_tasks, get_task
 
+EXIT_INTERNAL = 1
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
+EXIT_BROKEN_PIPE = 141
+EXIT_TERMINATED = 143
+CRITERIA = ("oracle", "no-truth", "pynumdiff")
 
 
 class UsageError(Exception):
     """A mistake in the command line (reported in one line, exit code 2)."""
+
+
+@contextlib.contextmanager
+def user_input(prefix: str = ""):
+    """Where the API checks what the user typed: its ``ValueError`` is a usage error."""
+    try:
+        yield
+    except ValueError as error:
+        raise UsageError(f"{prefix}{error}") from None
 
 
 class _Parser(argparse.ArgumentParser):
@@ -40,130 +59,147 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 0, got {value}")
+    return value
+
+
+def _finite_positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return value
+
+
+def _name_list(text: str) -> list[str]:
+    names = [name.strip() for name in text.split(",") if name.strip()]
+    if not names:
+        raise argparse.ArgumentTypeError("must name at least one, comma-separated")
+    return runner.unique(names)
+
+
+def _orders(text: str) -> list[int]:
+    try:
+        orders = [int(o) for o in _name_list(text)]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be 1, 2 or 1,2, got {text!r}") from None
+    if not set(orders) <= {1, 2}:
+        raise argparse.ArgumentTypeError(f"must be 1, 2 or 1,2, got {text!r}")
+    return orders
+
+
+def _criteria(text: str) -> list[str]:
+    criteria = _name_list(text)
+    unknown = [c for c in criteria if c not in CRITERIA]
+    if unknown:
+        raise argparse.ArgumentTypeError(f"must be among {', '.join(CRITERIA)}, got "
+                                         f"{', '.join(unknown)}")  # fmt: skip
+    return criteria
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="diffbench", description=__doc__.splitlines()[0])
-    commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-
-    commands.add_parser("list", help="methods (parameters, ranges, presets), signals, scenarios")
-
-    run = commands.add_parser("run", help="run every method at its preset on a scenario")
-    run.add_argument("scenario", help="scenario name (see `diffbench list`)")
-    run.add_argument(
-        "--seeds", type=_positive_int, default=10, help="number of noise seeds 0..N-1 (default 10)"
-    )
-    run.add_argument(
-        "--out", type=Path, default=Path("results"), help="results directory (default results/)"
-    )
-    run.add_argument(
-        "--methods", default=None, help="comma-separated method names (default: all registered)"
-    )
-    run.add_argument("--no-progress", action="store_true", help="no progress bar")
-    run.add_argument(
+    parser.add_argument("--version", action="version",
+                        version=f"diffbench {metadata.version('diffbench')}")  # fmt: skip
+    out = _Parser(add_help=False)
+    out.add_argument("--out", type=Path, default=Path("results"),
+                     help="results directory: reports in OUT/TASK/, the store in OUT/store/ "
+                     "(default results/)")  # fmt: skip
+    work = _Parser(add_help=False)
+    work.add_argument(
         "--jobs",
         type=_positive_int,
         default=1,
-        help="local processes (results identical to a serial run)",
+        help="local worker processes (results identical to a serial run)",
+    )
+    work.add_argument("--no-progress", action="store_true", help="no progress bar")
+    seeds = _Parser(add_help=False)
+    seeds.add_argument(
+        "--seeds",
+        type=_positive_int,
+        default=None,
+        help="scored seeds 0..N-1 (default: the task's, 10 for signals)",
+    )
+    pick = _Parser(add_help=False)
+    pick.add_argument(
+        "--methods",
+        type=_name_list,
+        default=None,
+        help="comma-separated method names (default: every registered method)",
     )
 
-    figures = commands.add_parser(
-        "paper-figures",
-        help="the paper's figures 1-3 (PNG + CSV), the frequency table and table I, measured",
-    )
-    figures.add_argument(
-        "--out", type=Path, default=Path("results"), help="results directory (default results/)"
-    )
-    figures.add_argument(
-        "--seeds", type=_positive_int, default=10, help="noise seeds for table I (default 10)"
-    )
-    figures.add_argument("--no-progress", action="store_true", help="no progress bar")
-    figures.add_argument("--jobs", type=_positive_int, default=1, help="local processes")
+    commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    listing = commands.add_parser("list", help="methods (parameters, ranges, presets) and tasks")
+    listing.set_defaults(handler=_cmd_list)
 
-    identify = commands.add_parser(
-        "identify", help="identify the 2R robot's base parameters with every method (IDIM-LS)"
+    run = commands.add_parser(
+        "run",
+        parents=[out, work, seeds, pick],
+        help="run every method at its preset on a task, write its report",
     )
-    identify.add_argument(
-        "target", choices=["sim", "dfki"],
-        help="sim: the simulated paper robot; dfki: the real DFKI double pendulum "
-        "(leave-one-run-out over its 6 runs)",
-    )  # fmt: skip
-    identify.add_argument("--scenario", default="robot-sim", help="robot scenario (sim)")
-    identify.add_argument(
-        "--seeds", type=_positive_int, default=10, help="noise seeds 0..N-1 (default 10)"
-    )
-    identify.add_argument("--out", type=Path, default=Path("results"))
-    identify.add_argument("--methods", default=None, help="comma-separated method names")
-    identify.add_argument("--no-progress", action="store_true", help="no progress bar")
-    identify.add_argument("--jobs", type=_positive_int, default=1, help="local processes")
+    run.add_argument("task", help="task name (see `diffbench list`)")
+    run.set_defaults(handler=_cmd_run)
 
     tune = commands.add_parser(
-        "tune", help="tune a method (or all) on a scenario's tuning seed, score on other seeds"
-    )
-    tune.add_argument("method", help="method name, or 'all'")
-    tune.add_argument("scenario", help="scenario name (see `diffbench list`)")
-    criterion = tune.add_mutually_exclusive_group()
-    criterion.add_argument(
-        "--oracle",
-        dest="criterion",
-        action="store_const",
-        const="oracle",
-        help="minimise the RMSE against the truth (default)",
-    )
-    criterion.add_argument(
-        "--no-truth",
-        dest="criterion",
-        action="store_const",
-        const="no-truth",
-        help="data-only spectral risk (needs --cutoff-hz)",
-    )
-    criterion.add_argument(
-        "--pynumdiff",
-        dest="criterion",
-        action="store_const",
-        const="pynumdiff",
-        help="PyNumDiff's data-only loss",
-    )
-    tune.set_defaults(criterion="oracle")
+        "tune", parents=[out, work, seeds],
+        help="tune methods on a task's tuning seed (stored, reused), score on other seeds",
+    )  # fmt: skip
+    tune.add_argument("method", help="method name, comma-separated names, or 'all'")
+    tune.add_argument("task", help="a signal task (see `diffbench list`)")
+    tune.add_argument("--criteria", type=_criteria, default=["oracle"],
+                      help="oracle (against the truth), no-truth (spectral risk, linear methods),"
+                      " pynumdiff (PyNumDiff's loss); comma-separated (default oracle)")  # fmt: skip
     tune.add_argument(
-        "--order", type=int, choices=[1, 2], default=2, help="derivative to tune for (default 2)"
+        "--orders", type=_orders, default=[2], help="derivatives tuned for: 1, 2 or 1,2 (default 2)"
     )
-    tune.add_argument(
-        "--cutoff-hz",
-        type=float,
-        default=20.0,
-        help="bandlimit guess for the data-only criteria (default 20)",
-    )
+    tune.add_argument("--cutoff-hz", type=_finite_positive, default=20.0,
+                      help="bandlimit guess of the data-only criteria, inside (0, Nyquist) "
+                      "(default 20)")  # fmt: skip
     tune.add_argument(
         "--tuning-seed",
-        type=int,
+        type=_seed,
         default=10_000,
         help="noise seed tuned on (default 10000; never scored)",
     )
-    tune.add_argument(
-        "--seeds", type=_positive_int, default=20, help="scoring seeds 0..N-1 (default 20)"
+    tune.set_defaults(handler=_cmd_tune)
+
+    grid = commands.add_parser("grid", parents=[out, work],
+                               help="tune every method on the noise x level x step grid, "
+                               "score it, name the winners")  # fmt: skip
+    grid.add_argument("--seeds", type=_positive_int, default=10, help="scored seeds 0..N-1")
+    grid.add_argument(
+        "--orders", type=_orders, default=[1, 2], help="derivatives tuned for (default 1,2)"
     )
-    tune.add_argument("--out", type=Path, default=Path("results"))
-    tune.add_argument("--no-progress", action="store_true", help="no progress bar")
-    tune.add_argument("--jobs", type=_positive_int, default=1, help="local processes")
+    grid.set_defaults(handler=_cmd_grid)
 
-    grid = commands.add_parser(
-        "grid", help="tune every method on the noise x level x step grid and find the winners"
+    figures = commands.add_parser(
+        "paper-figures", parents=[out], help="the paper's figures 1-3 (PNG + CSV), frequency table"
     )
-    grid.add_argument("--seeds", type=_positive_int, default=10, help="scoring seeds 0..N-1")
-    grid.add_argument("--orders", default="1,2", help="derivatives tuned for (default 1,2)")
-    grid.add_argument("--out", type=Path, default=Path("results"))
-    grid.add_argument("--jobs", type=_positive_int, default=1, help="local processes")
-    grid.add_argument("--no-progress", action="store_true", help="no progress bar")
+    figures.set_defaults(handler=_cmd_paper_figures)
 
-    timing = commands.add_parser("timing", help="throughput of every method vs signal length")
-    timing.add_argument("--out", type=Path, default=Path("results"))
+    timing = commands.add_parser(
+        "timing", parents=[out], help="throughput of every method vs signal length"
+    )
+    timing.set_defaults(handler=_cmd_timing)
 
-    table = commands.add_parser("table", help="render the tables of a stored run again")
-    table.add_argument("scenario")
-    table.add_argument("--out", type=Path, default=Path("results"))
+    report = commands.add_parser(
+        "report", parents=[out], help="render a task's report again from the store"
+    )
+    report.add_argument("task")
+    report.set_defaults(handler=_cmd_report)
     return parser
 
 
-def _cmd_list() -> None:
+# --- commands ------------------------------------------------------------------------------
+def _cmd_list(args) -> None:
     print("methods (name: parameter range [tuning range] default; presets)")
     for name in methods.available():
         cls = methods.method_class(name)
@@ -173,288 +209,243 @@ def _cmd_list() -> None:
             if spec.tune_low is not None:
                 scale = ", log" if spec.log else ""
                 tune = f" [tune {spec.tune_low:g}..{spec.tune_high:g}{scale}]"
-            print(
-                f"      {spec.name}: {spec.describe_range()}{tune} default {spec.default!r}"
-                f"  - {spec.doc}"
-            )
+            print(f"      {spec.name}: {spec.describe_range()}{tune} default {spec.default!r}"
+                  f"  - {spec.doc}")  # fmt: skip
         for key, chosen in cls.presets.items():
             values = ", ".join(f"{k}={v!r}" for k, v in chosen.values.items())
-            print(f"      preset {key}: {values}  ({chosen.source})")
-    print("signals")
-    for name in signals.available_signals():
-        print(f"  {name}: {signals.get_signal(name)!r}")
-    print("scenarios (diffbench run)")
-    for name in signals.available_scenarios():
-        scenario = signals.get_scenario(name)
-        print(f"  {name}: {scenario.description}")
-    print("robot scenarios (diffbench identify sim --scenario NAME)")
-    for name in signals.robot2r.available_robot_scenarios():
-        print(f"  {name}: {signals.robot2r.get_robot_scenario(name).description}")
-    from diffbench.bench.robot import DfkiCrossValidation
-
-    print(f"real robot (diffbench identify dfki)\n  {DfkiCrossValidation().description}")
+            print(f"      preset {key} ({chosen.label}): {values}  ({chosen.source})")
+    print("tasks (diffbench run TASK)")
+    for name in available_tasks(listed_only=True):
+        task = get_task(name)
+        print(f"  {name} [{task.kind}]: {task.description}")
+    grid = [n for n in available_tasks() if not get_task(n).listed]
+    if grid:
+        print(f"  ... and {len(grid)} grid tasks ({grid[0]} ... {grid[-1]}; diffbench grid)")
 
 
-def _scenario_dir(out: Path, scenario: str) -> Path:
-    return out / scenario
+def _task(name: str):
+    with user_input():
+        return get_task(name)
 
 
-def _render(store: ResultStore, directory: Path, scenario: str) -> list[Path]:
-    rows = store.load()
-    if rows.empty:
-        raise UsageError(f"no stored results in {store.path}; run `diffbench run {scenario}`")
-    return tables.write_run_tables(rows, directory, scenario)
+def _method_names(names) -> list[str] | None:
+    if names is None:
+        return None
+    with user_input("--methods: "):
+        return [methods.method_class(name).name for name in names]
 
 
-def _progress(enabled: bool):
-    if not enabled:
+def _open_store(out: Path) -> Store:
+    store = Store(out / "store")
+    for item in store.set_aside:
+        print(f"diffbench: warning: set aside {item} (kept in "
+              f"{item.path.with_name(item.path.stem + '.quarantine.jsonl')})",
+              file=sys.stderr)  # fmt: skip
+    return store
+
+
+def _progress(args, unit: str = "cell"):
+    if args.no_progress:
         return None
 
     def wrap(items, total):
         from tqdm import tqdm
 
-        return tqdm(items, total=total, unit="cell", file=sys.stderr, dynamic_ncols=True)
+        return tqdm(items, total=total, unit=unit, file=sys.stderr, dynamic_ncols=True)
 
     return wrap
 
 
-def _method_names(args: argparse.Namespace) -> list[str] | None:
-    """The comma-separated ``--methods``, or None for every registered method."""
-    if not args.methods:
-        return None
-    return [name.strip() for name in args.methods.split(",") if name.strip()]
+def _run_cells(cells, store: Store, args) -> runner.RunSummary:
+    try:
+        return runner.run(cells, store, progress=_progress(args), jobs=args.jobs)
+    except (KeyboardInterrupt, Terminated) as stop:
+        store.refresh()
+        print(f"diffbench: interrupted; {len(store.cells.records)} cells are stored in "
+              f"{store.directory}; run the same command to resume", file=sys.stderr)  # fmt: skip
+        code = EXIT_INTERRUPTED if isinstance(stop, KeyboardInterrupt) else EXIT_TERMINATED
+        raise SystemExit(code) from None
 
 
-def _cmd_run(args: argparse.Namespace) -> None:
-    cells = runner.preset_cells(args.scenario, range(args.seeds), _method_names(args))
-    directory = _scenario_dir(args.out, args.scenario)
-    store = ResultStore(directory / "cells.csv")
-    summary = _run_cells(cells, store, args)
-    written = _render(store, directory, args.scenario)
-    print(
-        f"{summary.computed} cells computed, {summary.skipped} already stored; "
-        f"wrote {', '.join(str(p) for p in written)}"
-    )
-    revisions = set(store.load()["git_rev"]) - {provenance()["git_rev"]}
-    if revisions:
-        print(
-            "note: some stored cells were computed by other code revisions "
-            f"({', '.join(sorted(r[:12] for r in revisions))}); delete {directory} to "
-            "recompute them all",
-            file=sys.stderr,
-        )
+def _say(summary: runner.RunSummary) -> None:
+    text = f"{summary.computed} cells computed, {summary.skipped} already stored"
+    if summary.stored_by_others:
+        text += f", {summary.stored_by_others} stored meanwhile by another writer"
+    print(text)
 
 
-def _cmd_paper_figures(args: argparse.Namespace) -> None:
+def _report(task, store: Store, out: Path) -> list[Path]:
+    store.refresh()
+    cells = store.cells_frame(task.name)
+    if cells.empty:
+        raise UsageError(f"no stored results of {task.name} in {store.directory}; run "
+                         f"`diffbench run {task.name} --out {out}` first")  # fmt: skip
+    written = task.report(cells, store.tunings_frame(), out / task.name)
+    current = provenance()["git_rev"]
+    others = sorted(r[:12] for r in set(cells["git_rev"]) - {current})
+    if others:
+        print(f"diffbench: note: some stored cells of {task.name} were computed by other code "
+              f"revisions ({', '.join(others)}); delete {store.directory} to recompute",
+              file=sys.stderr)  # fmt: skip
+    return written
+
+
+def _cmd_run(args) -> None:
+    task = _task(args.task)
+    names = _method_names(args.methods)
+    with user_input():
+        seeds = task.seeds(args.seeds)
+        entries = task.lineup(names)
+    store = _open_store(args.out)
+    cells = [cell for entry in entries for cell in entry.cells(task.name, seeds)]
+    _say(_run_cells(cells, store, args))
+    for path in _report(task, store, args.out):
+        print(path)
+
+
+def _cmd_report(args) -> None:
+    task = _task(args.task)
+    if not (args.out / "store" / "cells.jsonl").exists():
+        raise UsageError(f"no results store in {args.out / 'store'}; run "
+                         f"`diffbench run {task.name} --out {args.out}` first")  # fmt: skip
+    for path in _report(task, _open_store(args.out), args.out):
+        print(path)
+
+
+def _check_cutoff(cutoff_hz: float, task) -> None:
+    realisation = task.tuning_data(0)
+    nyquist = 0.5 / realisation.dt_s
+    if not 0 < cutoff_hz < nyquist:
+        raise UsageError(f"--cutoff-hz must lie strictly inside (0, {nyquist:g}) Hz, the "
+                         f"Nyquist frequency of {task.name}; got {cutoff_hz:g}")  # fmt: skip
+
+
+def _cmd_tune(args) -> None:
+    task = _task(args.task)
+    with user_input():
+        seeds = task.seeds(args.seeds)
+        task.tuning_data(args.tuning_seed)
+    if args.tuning_seed in seeds:
+        raise UsageError(f"--tuning-seed {args.tuning_seed} is among the scored seeds "
+                         f"0..{seeds[-1]}; choose one >= {len(seeds)}")  # fmt: skip
+    names = methods.available() if args.method == "all" else _method_names(
+        _name_list(args.method))  # fmt: skip
+    data_only = [c for c in args.criteria if c != "oracle"]
+    if data_only:
+        _check_cutoff(args.cutoff_hz, task)
+    jobs_list = []
+    for criterion in args.criteria:
+        for name in names:
+            if criterion == "no-truth" and not methods.method_class(name).linear:
+                print(f"{name}: not linear, skipped for the no-truth criterion", file=sys.stderr)
+                continue
+            cutoff = args.cutoff_hz if criterion != "oracle" else None
+            jobs_list += [runner.TuningJob(task.name, name, criterion, order, args.tuning_seed,
+                                           cutoff) for order in args.orders]  # fmt: skip
+    store = _open_store(args.out)
+    found, tuned = _tune(jobs_list, store, args)
+    for job, record in found.items():
+        chosen = ", ".join(f"{k}={v!r}" for k, v in record["params"].items())
+        print(f"{job.method} ({job.role.label}): {chosen or 'no setting covers the task'} "
+              f"(loss {record['loss']:.4g}, {record['evaluations']} evaluations)")  # fmt: skip
+    entries = runner.tuned_entries(found)
+    cells = [cell for entry in entries for cell in entry.cells(task.name, seeds)]
+    _say(_run_cells(cells, store, args))
+    for path in _report(task, store, args.out):
+        print(path)
+
+
+def _tune(jobs_list, store: Store, args):
+    try:
+        found, summary = runner.tune_all(jobs_list, store, jobs=args.jobs,
+                                         progress=_progress(args, "tuning"))  # fmt: skip
+    except (KeyboardInterrupt, Terminated) as stop:
+        print("diffbench: interrupted; finished tunings are stored; run the same command to "
+              "resume", file=sys.stderr)  # fmt: skip
+        code = EXIT_INTERRUPTED if isinstance(stop, KeyboardInterrupt) else EXIT_TERMINATED
+        raise SystemExit(code) from None
+    print(f"{summary.computed} tunings computed, {summary.reused} reused from the store")
+    return found, summary
+
+
+def _cmd_grid(args) -> None:
+    from diffbench.bench import grid
+
+    store = _open_store(args.out)
+    found, _ = _tune(grid.tuning_jobs(args.orders), store, args)
+    cells = grid.cells(found, range(args.seeds))
+    _say(_run_cells(cells, store, args))
+    store.refresh()
+    for path in grid.write_winners(store.cells_frame(grid.task_names()), args.out / "grid"):
+        print(path)
+
+
+def _cmd_paper_figures(args) -> None:
     from diffbench.bench import paper
 
     directory = args.out / "paper-figures"
     directory.mkdir(parents=True, exist_ok=True)
     written = paper.write_figure1(directory) + paper.write_figure2(directory)
     written += paper.write_figure3(directory) + paper.write_frequency_table(directory)
-    influence = args.out / "jacobi-influence"
-    store = ResultStore(influence / "cells.csv")
-    _run_cells(paper.influence_cells(range(args.seeds)), store, args)
-    written += tables.write_table(
-        tables.wide_table(store.load(), tables.DECOMPOSITION_COLUMNS),
-        influence,
-        "table1",
-        "Table I of the paper, measured: bias and noise parts of the Jacobi error on "
-        "`paper-signal` as κ = μ, q and T move from the preset (interior RMS, mean ± 95 % CI)",
-        "Preset κ = μ = 12, q = 6, T = 0.21 s (trapezoid rule); one parameter changed per row.",
-    )
     for path in written:
         print(path)
 
 
-def _run_cells(cells, store: ResultStore, args: argparse.Namespace) -> runner.RunSummary:
-    try:
-        return runner.run(cells, store, progress=_progress(not args.no_progress), jobs=args.jobs)
-    except KeyboardInterrupt:
-        stored = len(store.completed_keys())
-        print(
-            f"diffbench: interrupted; {stored} cells are stored in {store.path}; "
-            "run the same command to resume",
-            file=sys.stderr,
-        )
-        raise SystemExit(EXIT_INTERRUPTED) from None
+def _cmd_timing(args) -> None:
+    from diffbench.bench import timing
 
-
-def _cmd_identify(args: argparse.Namespace) -> None:
-    from diffbench.bench import paper
-    from diffbench.bench.robot import well_excited
-    from diffbench.signals import robot2r
-
-    names = _method_names(args)
-    if args.target == "dfki":
-        _identify_dfki(args, names)
-        return
-    scenario = robot2r.get_robot_scenario(args.scenario)
-    cells = runner.preset_cells(args.scenario, range(args.seeds), names)
-    directory = args.out / f"identify-{args.scenario}"
-    store = ResultStore(directory / "cells.csv")
-    summary = _run_cells(cells, store, args)
-    rows = store.load()
-    table = tables.identification_table(rows, robot2r.PARAMETER_NAMES, scenario.true_parameters)
-    written = tables.write_identification_table(
-        table, directory,
-        f"Base parameters of `{args.scenario}` identified with each differentiator (IDIM-LS; "
-        "the paper's table II layout; means over seeds)",
-        "X̂: mean estimate; σ: one standard deviation σ_X from σ_ρ²(WᵀW)⁻¹ (the paper's table "
-        "II column 'σ' is about 2σ); %σXr = 100 σ/|X̂|; err: (X̂ − X)/X in %, mean ± std over "
-        "seeds. Robot presets of each method; L = 0.5 m.",
-    )  # fmt: skip
-    mask = well_excited(scenario)
-    excited = ", ".join(n for n, w in zip(robot2r.PARAMETER_NAMES, mask, strict=True) if w)
-    written += tables.write_table(
-        tables.wide_table(rows, tables.IDENTIFICATION_SUMMARY), directory, "summary",
-        f"Identification on `{args.scenario}`: parameter error, torque prediction on a fresh "
-        "trajectory, derivative errors (mean ± 95 % CI of the mean over seeds)",
-        "‖X̂−X‖/‖X‖ over the parameters identified to < 10 % relative σ with exact derivatives "
-        f"({excited}).",
-    )  # fmt: skip
-    written += paper.write_figure5(directory, args.scenario)
-    print(f"{summary.computed} cells computed, {summary.skipped} already stored")
-    for path in written:
+    for path in timing.write_throughput(args.out / "timing", timing.throughput()):
         print(path)
 
 
-def _identify_dfki(args: argparse.Namespace, names) -> None:
-    from diffbench.signals import dfki
-
-    cells = runner.preset_cells("dfki-cv", range(dfki.DFKI_RUNS), names)
-    directory = args.out / "identify-dfki"
-    store = ResultStore(directory / "cells.csv")
-    summary = _run_cells(cells, store, args)
-    rows = store.load()
-    written = tables.write_table(
-        tables.wide_table(rows, tables.DFKI_SUMMARY), directory, "summary",
-        "DFKI double pendulum: measured-torque prediction on the held-out run after "
-        "identification on the other five (mean ± 95 % CI over the 6 folds)",
-        "τ RMSE: identified model vs measured torque, both decimated alike (F_p = 5 Hz), on "
-        "the actuated joints of the held-out run; lab: the lab's published model with the same "
-        "derivatives; q̇ vs driver: RMSE against the motor driver's own velocity estimate.",
-    )  # fmt: skip
-    table = tables.identification_table(rows, dfki.PENDULUM_PARAMETER_NAMES)
-    table.insert(1, "lab", dfki.lab_base_parameters())
-    written += tables.write_identification_table(
-        table, directory,
-        "DFKI double pendulum base parameters identified with each differentiator (mean over "
-        "the 6 leave-one-run-out fits; column 'lab' holds the lab's published model)",
-        "X̂ (σ one standard deviation, %σXr); see signals/dfki.py for the base parameters.",
-        reference="lab",
-    )  # fmt: skip
-    print(f"{summary.computed} cells computed, {summary.skipped} already stored")
-    for path in written:
-        print(path)
-
-
-def _cmd_tune(args: argparse.Namespace) -> None:
-    from diffbench.bench import tuning
-
-    if args.tuning_seed < args.seeds:
-        raise UsageError(f"--tuning-seed {args.tuning_seed} is among the scored seeds "
-                         f"0..{args.seeds - 1}; choose one >= {args.seeds}")  # fmt: skip
-    scenario = signals.get_scenario(args.scenario)
-    names = (
-        methods.available() if args.method == "all" else [methods.method_class(args.method).name]
-    )
-    realisation = scenario.realise(args.tuning_seed)
-    directory = _scenario_dir(args.out, args.scenario)
-    cells, records = [], []
-    for name in names:
-        if args.criterion == "no-truth" and not methods.method_class(name).linear:
-            print(f"{name}: not linear, skipped for --no-truth", file=sys.stderr)
-            continue
-        result = tuning.tune(name, realisation, args.order, args.criterion, args.cutoff_hz)
-        label = (f"tuned: {args.criterion} for {tables.ORDER_LABELS[args.order]} on seed "
-                 f"{args.tuning_seed}")  # fmt: skip
-        params = {**methods.get(name).params(), **result.params}
-        cells += [runner.Cell(name, params, args.scenario, seed, preset=label)
-                  for seed in range(args.seeds)]  # fmt: skip
-        records.append({"method": name, "criterion": args.criterion, "order": args.order,
-                        "tuning_seed": args.tuning_seed, "loss": result.loss,
-                        "evaluations": result.evaluations, "seconds": round(result.seconds, 3),
-                        "params": json.dumps(params, sort_keys=True)})  # fmt: skip
-        print(
-            f"{name}: {result.params} (loss {result.loss:.4g}, {result.evaluations} "
-            f"evaluations, {result.seconds:.2f} s)"
-        )
-    store = ResultStore(directory / "cells.csv")
-    summary = _run_cells(cells, store, args)
-    log = directory / "tuning.csv"
-    frame = pd.DataFrame(records)
-    frame.to_csv(log, mode="a", header=not log.exists(), index=False)
-    written = [*_render(store, directory, args.scenario), log]
-    written += tables.write_tuning_summary(store.load(), pd.read_csv(log), directory)
-    print(f"{summary.computed} cells computed, {summary.skipped} already stored")
-    for path in written:
-        print(path)
-
-
-def _cmd_grid(args: argparse.Namespace) -> None:
-    from diffbench.bench import grid
-
-    try:
-        orders = tuple(int(o) for o in args.orders.split(","))
-    except ValueError:
-        raise UsageError(f"--orders must be a comma-separated list of 1 and 2, got "
-                         f"{args.orders!r}") from None  # fmt: skip
-    if not set(orders) <= {1, 2}:
-        raise UsageError(f"--orders must hold 1 and/or 2, got {args.orders!r}")
-    directory = args.out / "grid"
-    store = ResultStore(directory / "cells.csv")
-    cells = grid.grid_cells(range(args.seeds), orders, jobs=args.jobs)
-    summary = _run_cells(cells, store, args)
-    print(f"{summary.computed} cells computed, {summary.skipped} already stored")
-    for path in grid.write_winners(store.load(), directory):
-        print(path)
-
-
-def _cmd_table(args: argparse.Namespace) -> None:
-    signals.get_scenario(args.scenario)
-    directory = _scenario_dir(args.out, args.scenario)
-    path = directory / "cells.csv"
-    if not path.exists():
-        raise UsageError(f"no results at {path}; run `diffbench run {args.scenario}` first")
-    for written in _render(ResultStore(path), directory, args.scenario):
-        print(written)
-
-
+# --- entry point ---------------------------------------------------------------------------
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``diffbench`` console script; returns the exit code."""
+    argv = list(sys.argv[1:] if argv is None else argv)
     try:
         args = build_parser().parse_args(argv)
-        if args.command == "list":
-            _cmd_list()
-        elif args.command == "run":
-            _cmd_run(args)
-        elif args.command == "paper-figures":
-            _cmd_paper_figures(args)
-        elif args.command == "identify":
-            _cmd_identify(args)
-        elif args.command == "tune":
-            _cmd_tune(args)
-        elif args.command == "grid":
-            _cmd_grid(args)
-        elif args.command == "timing":
-            from diffbench.bench import timing
-
-            for path in timing.write_throughput(args.out / "timing", timing.throughput()):
-                print(path)
-        elif args.command == "table":
-            _cmd_table(args)
-    except (UsageError, ValueError) as error:
-        message = str(error).splitlines()[0] if str(error) else type(error).__name__
+        set_command(argv)
+        terminate_on_sigterm()
+        args.handler(args)
+    except UsageError as error:
+        message = str(error).splitlines()[0] if str(error) else "bad command line"
         print(f"diffbench: error: {message}", file=sys.stderr)
         return EXIT_USAGE
-    except OSError as error:  # e.g. an --out directory that cannot be written
-        print(f"diffbench: error: {error.strerror or error}: {error.filename}", file=sys.stderr)
-        return EXIT_USAGE
+    except OSError as error:
+        if isinstance(error, BrokenPipeError):
+            return _broken_pipe()
+        if error.errno is not None and error.filename is not None:  # e.g. an unwritable --out
+            print(f"diffbench: error: {error.strerror}: {error.filename}", file=sys.stderr)
+            return EXIT_USAGE
+        raise
+    except KeyboardInterrupt:
+        print("diffbench: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Terminated:
+        print("diffbench: terminated", file=sys.stderr)
+        return EXIT_TERMINATED
     except SystemExit as stop:
-        return int(stop.code or 0)
+        return int(stop.code or 0) if not isinstance(stop.code, str) else EXIT_USAGE
+    try:
+        sys.stdout.flush()
+    except BrokenPipeError:
+        return _broken_pipe()
     return 0
 
 
-if __name__ == "__main__":
+def _broken_pipe() -> int:
+    # The reader went away (e.g. `| head`): stop quietly, and keep Python's exit-time flush of
+    # stdout from failing again (the pattern the Python documentation gives for SIGPIPE).
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    return EXIT_BROKEN_PIPE
+
+
+def console() -> None:
+    """The console script: :func:`main`, with an internal error shown as its traceback and
+    exit code 1 (Python's own behaviour for an uncaught exception)."""
     sys.exit(main())
+
+
+if __name__ == "__main__":
+    console()

@@ -17,7 +17,6 @@ import numpy as np
 import pandas as pd
 from diffbench import methods, signals
 from diffbench.bench.frequency import cutoff_hz, ideal_response, noise_gain
-from diffbench.bench.runner import Cell
 
 DT = 1e-3
 SCENARIO = "paper-signal"
@@ -32,16 +31,6 @@ FIG3_SWEEPS = {
     "q": [{"q": v} for v in (2, 6, 12)],
     "T": [{"window_s": v, "accel_window_s": v} for v in (0.05, 0.1, 0.2)],
 }
-# Table I: one parameter raised or lowered from the paper's test-signal preset at a time.
-INFLUENCE_VARIANTS = [
-    {},
-    {"kappa": 6.0, "mu": 6.0},
-    {"kappa": 24.0, "mu": 24.0},
-    {"q": 2},
-    {"q": 10},
-    {"window_s": 0.1, "accel_window_s": 0.1},
-    {"window_s": 0.3, "accel_window_s": 0.3},
-]
 
 
 def _db(values) -> np.ndarray:
@@ -104,18 +93,6 @@ def frequency_table(dt: float = DT, probe_hz: float = 15.0) -> pd.DataFrame:
                 "preset": source,
             })  # fmt: skip
     return pd.DataFrame(records)
-
-
-def influence_cells(seeds) -> list[Cell]:
-    """Cells of the Jacobi variants of table I on the paper scenario."""
-    base = methods.preset("jacobi", "paper-signal")
-    cells = []
-    for seed in seeds:
-        for change in INFLUENCE_VARIANTS:
-            params = {**base.params(), **change}
-            label = "paper preset" if not change else f"preset with {change}"
-            cells.append(Cell("jacobi", params, SCENARIO, int(seed), preset=label))
-    return cells
 
 
 # --- writing: CSV first, the figure from the CSV ------------------------------------------

@@ -1,126 +1,81 @@
-"""The runner: expand a benchmark into cells, compute each one, store it at once.
+"""The runner: expand a task into cells, compute each one, store it at once.
 
-A cell is one method with one parameter set on one scenario realised with one noise seed. A
-cell's numbers depend only on (method, parameters, scenario, seed), so the same seed gives
-bit-identical numbers, and a run that is interrupted resumes by computing only the cells the
-store does not hold yet.
+A cell is one method with one parameter set (and the role of that set: a preset, tuned, a
+variant) on one task for one seed. A cell's numbers depend only on (task, method, parameters,
+seed), so the same seed gives bit-identical numbers, and an interrupted run resumes by
+computing only the cells the store does not hold. The runner never asks what kind of task it
+holds: the task scores the method (:meth:`bench.tasks.Task.score`).
 """
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
 from typing import Any
 
-from diffbench import methods, signals
-from diffbench.bench.frequency import decompose_error
-from diffbench.bench.provenance import provenance
-from diffbench.bench.scores import score_estimate
-from diffbench.bench.store import ResultStore, canonical_params, cell_key
-from diffbench.signals import robot2r
+from diffbench import methods
+from diffbench.bench import tuning
+from diffbench.bench.executor import ordered_map
+from diffbench.bench.roles import Role
+from diffbench.bench.store import Store, canonical, cell_key
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Cell:
-    """One unit of work: ``method`` with ``params`` on ``scenario`` realised with ``seed``."""
+    """One unit of work: ``method`` with ``params`` (in ``role``) on ``task`` for ``seed``;
+    cells are equal when their keys are."""
 
+    task: str
     method: str
     params: Mapping[str, Any]
-    scenario: str
     seed: int
-    preset: str = field(default="", compare=False)
+    role: Role = field(default_factory=lambda: Role(origin="preset"))
 
     @property
     def key(self) -> str:
-        return cell_key(self.method, self.params, self.scenario, self.seed)
+        return cell_key(self.task, self.method, self.params, self.seed, self.role.as_dict())
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Cell) and self.key == other.key
+
+    def __hash__(self) -> int:
+        return hash(self.key)
 
 
-def preset_cells(
-    scenario: str, seeds: Iterable[int], method_names: Sequence[str] | None = None
-) -> list[Cell]:
-    """Cells of every registered method (or those named) at the scenario's preset, per seed.
+@dataclass(frozen=True)
+class Entry:
+    """A row of a comparison: a method, its parameters and their role (cells over seeds)."""
 
-    Raises ``ValueError`` for an unknown scenario or method name.
-    """
-    chosen = find_scenario(scenario)
-    names = list(method_names) if method_names else methods.available()
-    instances = []
-    for name in names:
-        key = chosen.preset if chosen.preset in methods.method_class(name).presets else "default"
-        source = methods.preset_spec(name, key).source
-        instances.append((name, methods.preset(name, key).params(), f"{chosen.preset}: {source}"))
-    return [
-        Cell(method=name, params=params, scenario=scenario, seed=int(seed), preset=source)
-        for seed in seeds
-        for name, params, source in instances
-    ]
+    method: str
+    params: Mapping[str, Any]
+    role: Role
+
+    def cells(self, task: str, seeds: Iterable[int]) -> list[Cell]:
+        return [Cell(task, self.method, dict(self.params), int(s), self.role) for s in seeds]
 
 
-def find_scenario(name: str):
-    """A signal scenario or a robot scenario by name; an unknown name lists both kinds."""
-    if name in robot2r.available_robot_scenarios():
-        return robot2r.get_robot_scenario(name)
-    if name == "dfki-cv":
-        from diffbench.bench.robot import DfkiCrossValidation
+def preset_entry(name: str, key: str) -> Entry:
+    """Method ``name`` at preset ``key``, or at its class defaults if it has no such preset."""
+    if key not in methods.method_class(name).presets:
+        key = methods.DEFAULT_PRESET
+    spec = methods.preset_spec(name, key)
+    params = methods.preset(name, key).params()
+    return Entry(name, params, Role.of_preset(key, spec.by))
 
-        return DfkiCrossValidation()
-    if name in signals.available_scenarios():
-        return signals.get_scenario(name)
-    known = signals.available_scenarios() + robot2r.available_robot_scenarios() + ["dfki-cv"]
-    raise ValueError(f"unknown scenario {name!r}; available: {', '.join(sorted(known))}")
+
+def unique(items: Iterable) -> list:
+    """The items in their first order, each once."""
+    return list(dict.fromkeys(items))
 
 
 def compute_cell(cell: Cell) -> list[dict[str, Any]]:
-    """Score rows of one cell (pure computation: no I/O).
+    """Score rows of one cell (pure computation: no I/O)."""
+    from diffbench.bench.tasks import get_task
 
-    On a robot scenario the cell is an identification (see :mod:`bench.robot`). Otherwise
-    linear methods also get the interior RMS of the bias part (the method on the clean
-    signal, minus the truth) and of the noise part (the method on the noise alone) of ẋ, ẍ.
-    """
-    scenario = find_scenario(cell.scenario)
     method = methods.get(cell.method, **cell.params)
-    if isinstance(scenario, robot2r.RobotScenario):
-        from diffbench.bench.robot import score_identification
-
-        return score_identification(method, scenario, cell.seed)
-    if scenario.name == "dfki-cv":
-        from diffbench.bench.robot import score_dfki_fold
-
-        return score_dfki_fold(method, scenario, cell.seed)
-    realisation = scenario.realise(cell.seed)
-    estimate = method(realisation.x, realisation.dt_s)
-    rows = score_estimate(estimate, realisation.truth, realisation.interior)
-    if method.linear:
-        for order in (1, 2):
-            parts = decompose_error(method, realisation, order)
-            rows += [
-                {"order": order, "region": "interior", "metric": "bias_rmse", "value": parts.bias},
-                {
-                    "order": order,
-                    "region": "interior",
-                    "metric": "noise_rmse",
-                    "value": parts.noise,
-                },
-            ]
-    return rows
-
-
-@dataclass
-class RunSummary:
-    """What a call of :func:`run` did."""
-
-    total: int
-    skipped: int
-    computed: int
-
-
-def _ignore_interrupts() -> None:
-    # Ctrl-C reaches the whole process group: let the parent handle it, quietly.
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    return get_task(cell.task).score(method, cell.seed)
 
 
 def _timed(cell: Cell) -> tuple[list[dict[str, Any]], float]:
@@ -129,58 +84,123 @@ def _timed(cell: Cell) -> tuple[list[dict[str, Any]], float]:
     return scores, time.perf_counter() - start
 
 
+@dataclass
+class RunSummary:
+    """What a call of :func:`run` did: cells asked for, found stored, computed and stored,
+    and computed but stored first by another writer (so not stored again)."""
+
+    total: int
+    skipped: int
+    computed: int
+    stored_by_others: int = 0
+
+
 def run(
     cells: Sequence[Cell],
-    store: ResultStore,
-    progress: Callable[[Iterable[Cell], int], Iterable[Cell]] | None = None,
+    store: Store,
+    progress: Callable[[Iterable, int], Iterable] | None = None,
     jobs: int = 1,
 ) -> RunSummary:
-    """Compute every cell the store lacks and append each one as soon as it is finished.
+    """Compute every cell the store lacks and store each one as soon as it is finished.
 
-    ``progress`` wraps the iterable of pending results (e.g. a tqdm progress bar). With
-    ``jobs`` > 1 the cells are computed on that many local processes; results are stored in
-    cell order, so the store (and every number in it) is the same as a serial run's. An
-    exception or interruption leaves every finished cell in the store.
+    Duplicate cells are computed once. ``progress`` wraps the iterable of pending results (e.g.
+    a tqdm bar). With ``jobs`` > 1 the cells are computed on that many local processes
+    (:func:`bench.executor.ordered_map`); this process alone writes the store. An exception or
+    interruption leaves every finished cell stored.
     """
-    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise ValueError(f"`jobs` must be an integer >= 1, got {jobs!r}")
-    done = store.completed_keys()
-    pending = [cell for cell in cells if cell.key not in done]
-    meta = provenance()
-    computed = 0
-    executor = None
-    if jobs > 1 and len(pending) > 1:
-        from concurrent.futures import ProcessPoolExecutor
-
-        executor = ProcessPoolExecutor(max_workers=jobs, initializer=_ignore_interrupts)
-        results = executor.map(_timed, pending)
-    else:
-        results = map(_timed, pending)
+    cells = unique(cells)
+    store.refresh()
+    pending = [cell for cell in cells if not store.has_cell(cell.key)]
+    results = ordered_map(_timed, pending, jobs)
     paired = zip(pending, results, strict=True)
     iterable = progress(paired, len(pending)) if progress else paired
+    computed = others = 0
+    for cell, (scores, elapsed) in iterable:
+        stored = store.add_cell(task=cell.task, method=cell.method, params=cell.params,
+                                seed=cell.seed, role=cell.role.as_dict(), scores=scores,
+                                elapsed_s=elapsed)  # fmt: skip
+        computed += stored
+        others += not stored
+    return RunSummary(total=len(cells), skipped=len(cells) - len(pending), computed=computed,
+                      stored_by_others=others)  # fmt: skip
+
+
+# --- tuning, stored and reused ------------------------------------------------------------
+@dataclass(frozen=True)
+class TuningJob:
+    """One tuning: ``method`` on ``task``'s realisation ``tuning_seed`` for ``order``."""
+
+    task: str
+    method: str
+    criterion: str
+    order: int
+    tuning_seed: int
+    cutoff_hz: float | None = None
+    budget: int | None = None
+
+    def fields(self) -> dict[str, Any]:
+        return {"task": self.task, "method": self.method, "criterion": self.criterion,
+                "order": self.order, "tuning_seed": self.tuning_seed,
+                "cutoff_hz": self.cutoff_hz, "budget": self.budget}  # fmt: skip
+
+    @property
+    def role(self) -> Role:
+        return Role.tuned(self.criterion, self.order, self.tuning_seed, self.cutoff_hz)
+
+
+def _tune(job: TuningJob) -> dict[str, Any] | None:
+    from diffbench.bench.tasks import get_task
+
+    realisation = get_task(job.task).tuning_data(job.tuning_seed)
     try:
-        for cell, (scores, elapsed) in iterable:
-            finished = datetime.now(timezone.utc).isoformat(timespec="seconds")
-            rows = [
-                {
-                    "cell_key": cell.key,
-                    "method": cell.method,
-                    "params": canonical_params(cell.params),
-                    "preset": cell.preset,
-                    "scenario": cell.scenario,
-                    "seed": cell.seed,
-                    **score,
-                    "cell_rows": len(scores),
-                    "git_rev": meta["git_rev"],
-                    "versions": meta["versions"],
-                    "finished_utc": finished,
-                    "elapsed_s": round(elapsed, 6),
-                }
-                for score in scores
-            ]
-            store.append(rows)
-            computed += 1
-    finally:
-        if executor is not None:
-            executor.shutdown(wait=False, cancel_futures=True)
-    return RunSummary(total=len(cells), skipped=len(cells) - len(pending), computed=computed)
+        result = tuning.tune(job.method, realisation, job.order, job.criterion, job.cutoff_hz,
+                             max_evaluations=job.budget)  # fmt: skip
+    except tuning.NoRoomToTune as error:  # the method cannot cover the task at all
+        return {"params": {}, "loss": float("inf"), "evaluations": 0, "seconds": 0.0,
+                "note": str(error)}  # fmt: skip
+    if not math.isfinite(result.loss):  # no setting estimates the task's interior
+        return {"params": {}, "loss": float("inf"), "evaluations": result.evaluations,
+                "seconds": result.seconds}  # fmt: skip
+    params = {**methods.get(job.method).params(), **result.params}
+    return {"params": params, "loss": result.loss, "evaluations": result.evaluations,
+            "seconds": result.seconds}  # fmt: skip
+
+
+@dataclass
+class TuningSummary:
+    """Tunings asked for, found stored (reused) and computed now."""
+
+    total: int = 0
+    reused: int = 0
+    computed: int = 0
+
+
+def tune_all(jobs_list: Sequence[TuningJob], store: Store, jobs: int = 1,
+             progress: Callable | None = None) -> tuple[dict[TuningJob, dict], TuningSummary]:  # fmt: skip
+    """The stored tuning of every job, tuning (and storing) only those not stored yet.
+
+    Returns ``{job: record}`` (``record["params"]`` is empty when the method could not be
+    tuned on the task) and what was reused or computed.
+    """
+    jobs_list = unique(jobs_list)
+    store.refresh()
+    found = {job: store.find_tuning(**job.fields()) for job in jobs_list}
+    missing = [job for job, record in found.items() if record is None]
+    results = ordered_map(_tune, missing, jobs)
+    paired = zip(missing, results, strict=True)
+    for job, result in progress(paired, len(missing)) if progress else paired:
+        store.add_tuning(**job.fields(), params=result["params"], loss=result["loss"],
+                         evaluations=result["evaluations"], seconds=result["seconds"])  # fmt: skip
+        found[job] = store.find_tuning(**job.fields())
+    summary = TuningSummary(len(jobs_list), len(jobs_list) - len(missing), len(missing))
+    return found, summary
+
+
+def tuned_entries(found: Mapping[TuningJob, dict]) -> list[Entry]:
+    """An entry per successful tuning (one that found parameters)."""
+    return [Entry(job.method, record["params"], job.role) for job, record in found.items()
+            if record["params"]]  # fmt: skip
+
+
+__all__ = ["Cell", "Entry", "RunSummary", "TuningJob", "canonical", "preset_entry", "run",
+           "tune_all"]  # fmt: skip

@@ -1,121 +1,456 @@
-"""The results store: one tidy CSV file, appended cell by cell, that survives interruption.
+"""The results store: append-only JSON Lines files that keep every good record through anything.
 
-Each finished cell (method x parameters x scenario x seed) is written as one block of rows in a
-single ``write`` followed by ``fsync``, each row carrying the cell's key and its row count. On
-opening, a torn last line (a kill during a write) is cut off and any cell with fewer rows than
-it announced is dropped, so the store only ever holds complete cells and a rerun of the same
-command computes exactly the missing ones.
+A store is a folder (``<out>/store/``) holding one file per kind of record: ``cells.jsonl`` (one
+line per finished cell: its key, the role of its parameters, its scores) and ``tunings.jsonl``
+(one line per finished tuning). Each file starts with a header line; each run that writes to it
+adds one ``run`` line first (git revision, package versions, command), and its records name
+that run, so provenance is stored once per run, not on every row.
+
+Guarantees
+----------
+* **Atomic records.** A record is one line written by one ``os.write`` and then ``fsync``-ed,
+  under an exclusive lock (``filelock``) shared by every process that writes to the file.
+* **No duplicates.** Under the lock the writer first reads what other writers appended, and a
+  record whose key is already stored is refused (``append`` returns False): two concurrent
+  runs on one store end with every cell exactly once.
+* **Never a lost good record.** Opening the file reads it line by line; a line that is not a
+  valid record of this store (garbage, binary bytes, a torn last line left by a killed writer,
+  a foreign header, a record whose key does not match its content) is *set aside*: appended to
+  ``<name>.quarantine.jsonl`` with its line number and the reason, then the file is rewritten
+  atomically (temporary file, ``fsync``, ``os.replace``) with every good line byte for byte.
+  Nothing else ever rewrites the file.
+* **Resume.** Because finished records are durable and keyed, an interrupted or killed run
+  loses no finished record, and the same command computes only what is missing.
 """
 
 from __future__ import annotations
 
-import csv
-import io
+import dataclasses
 import json
 import os
-from collections.abc import Iterable, Mapping
+import uuid
+from collections.abc import Callable, Iterable, Mapping
+from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
+from diffbench.bench.provenance import provenance
+from filelock import FileLock
 
-COLUMNS = (
-    "cell_key", "method", "params", "preset", "scenario", "seed", "order", "region", "metric",
-    "value", "cell_rows", "git_rev", "versions", "finished_utc", "elapsed_s",
-)  # fmt: skip
-
-
-def cell_key(method: str, params: Mapping[str, Any], scenario: str, seed: int) -> str:
-    """The identity of a cell: method, canonical parameters, scenario and seed."""
-    return f"{method}|{canonical_params(params)}|{scenario}|{seed}"
+FORMAT = "diffbench-store"
+VERSION = 1
+LOCK_TIMEOUT_S = 600.0
 
 
-def canonical_params(params: Mapping[str, Any]) -> str:
-    """Parameters as compact JSON with sorted keys (one spelling per parameter set)."""
-    return json.dumps(dict(params), sort_keys=True, separators=(",", ":"))
+def canonical(value: Any) -> str:
+    """Compact JSON with sorted keys: one spelling per value (floats by ``repr``, exact)."""
+    return json.dumps(value, sort_keys=True, separators=(",", ":"), ensure_ascii=False)
 
 
-class ResultStore:
-    """Append-only tidy CSV of result rows at ``path`` (created with its header if missing)."""
+def utc_now() -> str:
+    return datetime.now(timezone.utc).isoformat(timespec="seconds")
 
-    def __init__(self, path: str | os.PathLike) -> None:
+
+@dataclasses.dataclass(frozen=True)
+class SetAside:
+    """A line of a store file that is not a valid record, and why."""
+
+    path: Path
+    line: int
+    reason: str
+
+    def __str__(self) -> str:
+        return f"{self.path.name} line {self.line}: {self.reason}"
+
+
+class _BadRecord(ValueError):
+    pass
+
+
+@dataclasses.dataclass
+class _Run:
+    """The provenance of this process's run, written once to each file it appends to."""
+
+    run_id: str = dataclasses.field(default_factory=lambda: uuid.uuid4().hex[:16])
+    command: str = ""
+
+    def record(self) -> dict[str, Any]:
+        meta = provenance()
+        return {
+            "record": "run",
+            "run": self.run_id,
+            "started_utc": utc_now(),
+            "git_rev": meta["git_rev"],
+            "versions": meta["versions"],
+            "command": self.command,
+        }
+
+
+CURRENT_RUN = _Run()
+
+
+def set_command(argv: Iterable[str]) -> None:
+    """Record the command line of this run (stored with its provenance)."""
+    CURRENT_RUN.command = " ".join(["diffbench", *argv])
+
+
+class RecordFile:
+    """One append-only JSON Lines file of records of one ``kind``, unique by ``key``.
+
+    ``validate(record)`` raises ``ValueError`` for a record that is not acceptable (it is then
+    set aside like any bad line). ``set_aside`` lists what opening the file put in quarantine.
+    """
+
+    def __init__(self, path: Path, kind: str, validate: Callable[[dict], None]) -> None:
         self.path = Path(path)
+        self.kind = kind
+        self._validate = validate
+        self.quarantine_path = self.path.with_name(self.path.stem + ".quarantine.jsonl")
+        self._lock = FileLock(str(self.path) + ".lock", timeout=LOCK_TIMEOUT_S)
+        self.records: dict[str, dict] = {}
+        self.runs: dict[str, dict] = {}
+        self.set_aside: list[SetAside] = []
+        self._offset = 0
+        self._identity: tuple[int, int] | None = None
+        self._run_written = False
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        if not self.path.exists() or self.path.stat().st_size == 0:
-            self._write_atomically(",".join(COLUMNS) + "\n")
-        self._repair()
+        with self._lock:
+            self._open()
 
-    def _write_atomically(self, text: str) -> None:
-        tmp = self.path.with_name(self.path.name + ".tmp")
-        with open(tmp, "w", encoding="utf-8", newline="") as handle:
-            handle.write(text)
+    # --- reading -------------------------------------------------------------------------
+    def _header(self) -> bytes:
+        return (canonical({"record": "header", "format": FORMAT, "kind": self.kind,
+                           "version": VERSION}) + "\n").encode()  # fmt: skip
+
+    def _classify(self, number: int, raw: bytes) -> tuple[str, dict | None, str]:
+        """('header' | 'run' | 'record' | 'blank' | 'bad', record, reason)."""
+        if not raw.strip():
+            return "blank", None, ""
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError:
+            return "bad", None, "not UTF-8 text (binary bytes)"
+        try:
+            record = json.loads(text)
+        except json.JSONDecodeError as error:
+            return "bad", None, f"not a JSON record ({error.msg} at column {error.colno})"
+        if not isinstance(record, dict):
+            return "bad", None, "not a JSON object"
+        kind = record.get("record")
+        if kind == "header":
+            if record.get("format") != FORMAT or record.get("kind") != self.kind:
+                return "bad", None, f"header of another file ({text.strip()[:80]})"
+            if record.get("version") != VERSION:
+                version = record.get("version")
+                raise ValueError(
+                    f"{self.path} was written by another diffbench store version ({version}); "
+                    f"this diffbench reads version {VERSION}: use a matching diffbench or "
+                    "another --out directory"
+                )
+            return "header", record, ""
+        if kind == "run":
+            if not isinstance(record.get("run"), str):
+                return "bad", None, "run record without a run id"
+            return "run", record, ""
+        if kind != self.kind:
+            return "bad", None, f"not a {self.kind} record (record={kind!r})"
+        try:
+            self._validate(record)
+        except (ValueError, TypeError, KeyError) as error:
+            return "bad", None, f"invalid {self.kind} record: {error}"
+        return "record", record, ""
+
+    def _stat_identity(self) -> tuple[int, int]:
+        status = os.stat(self.path)
+        return (status.st_dev, status.st_ino)
+
+    def _open(self) -> None:
+        """Read the whole file (under the lock); set aside bad lines and a torn tail."""
+        if not self.path.exists() or self.path.stat().st_size == 0:
+            self._replace(self._header())
+        data = self.path.read_bytes()
+        lines = data.split(b"\n")
+        tail = lines.pop()  # b"" when the file ends with a newline, else a torn last line
+        good: list[bytes] = []
+        bad: list[tuple[int, bytes, str]] = []
+        header_seen = False
+        for number, raw in enumerate(lines, start=1):
+            kind, record, reason = self._classify(number, raw)
+            if kind == "header":
+                if number == 1:
+                    header_seen = True
+                    good.append(raw)
+                else:
+                    bad.append((number, raw, "a second header line"))
+            elif kind == "bad":
+                bad.append((number, raw, reason))
+            elif kind == "blank":
+                continue
+            else:
+                if record["record"] == "run":
+                    self.runs[record["run"]] = record
+                elif record["key"] in self.records:
+                    bad.append((number, raw, "duplicate of an earlier record (same key)"))
+                    continue
+                else:
+                    self.records[record["key"]] = record
+                good.append(raw)
+        if tail:
+            bad.append((len(lines) + 1, tail, "torn last line (a write cut short)"))
+        if bad and not header_seen and not self.records and not self.runs:
+            raise ValueError(
+                f"{self.path} is not a diffbench store and holds no diffbench record; "
+                "move it away or choose another --out directory"
+            )
+        if bad or not header_seen:
+            self._quarantine(bad)
+            body = b"".join(line + b"\n" for line in good)
+            if not header_seen:
+                body = self._header() + body
+            self._replace(body)
+        self._offset = self.path.stat().st_size
+        self._identity = self._stat_identity()
+
+    def _quarantine(self, bad: list[tuple[int, bytes, str]]) -> None:
+        if not bad:
+            return
+        entries = []
+        for number, raw, reason in bad:
+            self.set_aside.append(SetAside(self.path, number, reason))
+            entries.append(canonical({
+                "file": self.path.name, "line": number, "reason": reason, "found_utc": utc_now(),
+                "text": raw.decode("utf-8", errors="backslashreplace"),
+            }) + "\n")  # fmt: skip
+        with open(self.quarantine_path, "a", encoding="utf-8") as handle:
+            handle.write("".join(entries))
             handle.flush()
             os.fsync(handle.fileno())
-        os.replace(tmp, self.path)
 
-    def _repair(self) -> None:
-        """Cut a torn last line and drop incomplete cells (left by a kill mid-write)."""
-        raw = self.path.read_bytes()
-        text = raw.decode("utf-8", errors="replace")
-        header = text.split("\n", 1)[0]
-        if header != ",".join(COLUMNS):
-            raise ValueError(
-                f"{self.path} is not a diffbench results file (unexpected header); "
-                "choose another --out directory"
+    def _replace(self, body: bytes) -> None:
+        temporary = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
+        with open(temporary, "wb") as handle:
+            handle.write(body)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(temporary, self.path)
+
+    def refresh(self) -> None:
+        """Read what other writers appended since the last read (whole lines only)."""
+        if self._identity != self._stat_identity():  # rewritten by an opener: read it all
+            self.records.clear()
+            self.runs.clear()
+            self._offset = 0
+            self._identity = self._stat_identity()
+        with open(self.path, "rb") as handle:
+            handle.seek(self._offset)
+            data = handle.read()
+        end = data.rfind(b"\n") + 1
+        number = 0
+        for raw in data[:end].split(b"\n")[:-1]:
+            number += 1
+            kind, record, _ = self._classify(number, raw)
+            if kind == "run":
+                self.runs[record["run"]] = record
+            elif kind == "record":
+                self.records.setdefault(record["key"], record)
+        self._offset += end
+
+    # --- writing -------------------------------------------------------------------------
+    def append(self, record: Mapping[str, Any]) -> bool:
+        """Store ``record`` (a dict with ``key``) unless its key is stored; True if written."""
+        record = {"record": self.kind, **record, "run": CURRENT_RUN.run_id}
+        self._validate(record)
+        with self._lock:
+            self.refresh()
+            if record["key"] in self.records:
+                return False
+            data = b""
+            with open(self.path, "rb") as handle:
+                handle.seek(0, os.SEEK_END)
+                if handle.tell() > 0:
+                    handle.seek(-1, os.SEEK_END)
+                    if handle.read(1) != b"\n":
+                        data += b"\n"  # a torn tail left by a killed writer stays its own line
+            if CURRENT_RUN.run_id not in self.runs:
+                run = CURRENT_RUN.record()
+                data += (canonical(run) + "\n").encode()
+                self.runs[run["run"]] = run
+            data += (canonical(record) + "\n").encode()
+            fd = os.open(self.path, os.O_WRONLY | os.O_APPEND)
+            try:
+                written = os.write(fd, data)
+                if written != len(data):
+                    raise OSError(f"short write to {self.path} ({written} of {len(data)} bytes)")
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+            self._offset = self.path.stat().st_size
+            self.records[record["key"]] = record
+        return True
+
+
+# --- cells ---------------------------------------------------------------------------------
+ROLE_FIELDS = ("origin", "preset", "by", "criterion", "tuned_order", "tuning_seed", "cutoff_hz",
+               "variant")  # fmt: skip
+ORIGINS = ("preset", "tuned", "variant")
+
+
+def cell_key(task: str, method: str, params: Mapping[str, Any], seed: int,
+             role: Mapping[str, Any]) -> str:  # fmt: skip
+    """The identity of a cell: task, method, canonical parameters, seed and role."""
+    return canonical([task, method, dict(params), int(seed), dict(role)])
+
+
+def _check_cell(record: dict) -> None:
+    for name, kind in (("task", str), ("method", str), ("params", dict), ("role", dict),
+                       ("scores", list)):  # fmt: skip
+        if not isinstance(record.get(name), kind):
+            raise ValueError(f"`{name}` must be a {kind.__name__}")
+    seed = record.get("seed")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ValueError("`seed` must be an integer >= 0")
+    role = record["role"]
+    if set(role) != set(ROLE_FIELDS) or role["origin"] not in ORIGINS:
+        raise ValueError(f"`role` must have the fields {', '.join(ROLE_FIELDS)}")
+    for score in record["scores"]:
+        if not (isinstance(score, list) and len(score) == 4 and isinstance(score[0], int)
+                and isinstance(score[1], str) and isinstance(score[2], str)
+                and (score[3] is None or isinstance(score[3], (int, float)))):  # fmt: skip
+            raise ValueError(f"a score must be [order, region, metric, value], got {score!r}")
+    expected = cell_key(record["task"], record["method"], record["params"], seed, role)
+    if record.get("key") != expected:
+        raise ValueError("`key` does not match the record's task, method, params, seed, role")
+
+
+# --- tunings -------------------------------------------------------------------------------
+TUNING_KEY_FIELDS = ("task", "method", "criterion", "order", "tuning_seed", "cutoff_hz",
+                     "budget")  # fmt: skip
+
+
+def tuning_key(**fields: Any) -> str:
+    """The identity of a tuning: task, method, criterion, order, tuning seed, bandlimit, budget."""
+    return canonical({name: fields[name] for name in TUNING_KEY_FIELDS})
+
+
+def _check_tuning(record: dict) -> None:
+    if not isinstance(record.get("params"), dict):
+        raise ValueError("`params` must be a dict")
+    if not isinstance(record.get("loss"), (int, float)):
+        raise ValueError("`loss` must be a number")
+    if record.get("key") != tuning_key(**{n: record.get(n) for n in TUNING_KEY_FIELDS}):
+        raise ValueError("`key` does not match the record's fields")
+
+
+class Store:
+    """The results store of one output directory: cells and tunings (see module docstring).
+
+    >>> store = Store(Path("results"))  # doctest: +SKIP
+    >>> store.cells_frame("paper-signal")  # tidy rows: one per cell x score  # doctest: +SKIP
+    """
+
+    def __init__(self, directory: str | os.PathLike) -> None:
+        self.directory = Path(directory)
+        self.cells = RecordFile(self.directory / "cells.jsonl", "cell", _check_cell)
+        self.tunings = RecordFile(self.directory / "tunings.jsonl", "tuning", _check_tuning)
+
+    @property
+    def set_aside(self) -> list[SetAside]:
+        return self.cells.set_aside + self.tunings.set_aside
+
+    def has_cell(self, key: str) -> bool:
+        return key in self.cells.records
+
+    def refresh(self) -> None:
+        self.cells.refresh()
+        self.tunings.refresh()
+
+    def add_cell(self, *, task: str, method: str, params: Mapping[str, Any], seed: int,
+                 role: Mapping[str, Any], scores: list[dict[str, Any]],
+                 elapsed_s: float) -> bool:  # fmt: skip
+        """Store one finished cell; False if another writer stored it first."""
+        key = cell_key(task, method, params, seed, role)
+        record = {
+            "key": key, "task": task, "method": method, "params": dict(params),
+            "seed": int(seed), "role": dict(role), "finished_utc": utc_now(),
+            "elapsed_s": round(float(elapsed_s), 6),
+            "scores": [[int(s["order"]), str(s["region"]), str(s["metric"]),
+                        _number(s["value"])] for s in scores],
+        }  # fmt: skip
+        return self.cells.append(record)
+
+    def find_tuning(self, **fields: Any) -> dict | None:
+        return self.tunings.records.get(tuning_key(**fields))
+
+    def add_tuning(self, *, params: Mapping[str, Any], loss: float, evaluations: int,
+                   seconds: float, **fields: Any) -> bool:  # fmt: skip
+        record = {"key": tuning_key(**fields), **{n: fields[n] for n in TUNING_KEY_FIELDS},
+                  "params": dict(params), "loss": _number(loss), "evaluations": int(evaluations),
+                  "seconds": round(float(seconds), 4), "finished_utc": utc_now()}  # fmt: skip
+        return self.tunings.append(record)
+
+    def cells_frame(self, task: str | Iterable[str] | None = None) -> pd.DataFrame:
+        """Tidy rows (one per cell and score) of the given task(s), with role and provenance
+        columns: task, method, params (canonical JSON), seed, role (canonical JSON), the role
+        fields, order, region, metric, value, run, git_rev, finished_utc, elapsed_s."""
+        wanted = None if task is None else ({task} if isinstance(task, str) else set(task))
+        columns: dict[str, list] = {name: [] for name in FRAME_COLUMNS}
+        for record in self.cells.records.values():
+            if wanted is not None and record["task"] not in wanted:
+                continue
+            params, role = canonical(record["params"]), canonical(record["role"])
+            run = self.cells.runs.get(record["run"], {})
+            fixed = (
+                record["task"],
+                record["method"],
+                params,
+                record["seed"],
+                role,
+                *(record["role"][f] for f in ROLE_FIELDS),
+                record["run"],
+                run.get("git_rev", "unknown"),
+                record["finished_utc"],
+                record["elapsed_s"],
             )
-        complete = text[: text.rfind("\n") + 1]
-        frame = self._parse(complete)
-        counts = frame.groupby("cell_key")["cell_rows"].transform("size")
-        keep = counts == frame["cell_rows"]
-        if complete != text or not keep.all():
-            kept = frame[keep]
-            buffer = io.StringIO()
-            buffer.write(",".join(COLUMNS) + "\n")
-            _write_rows(buffer, kept.to_dict("records"))
-            self._write_atomically(buffer.getvalue())
-
-    @staticmethod
-    def _parse(text: str) -> pd.DataFrame:
-        frame = pd.read_csv(
-            io.StringIO(text),
-            dtype={"cell_key": str, "params": str, "versions": str, "git_rev": str},
-            keep_default_na=False,
-            na_values={"value": ["nan", "NaN"]},
-        )
+            for order, region, metric, value in record["scores"]:
+                for name, item in zip(_FIXED, fixed, strict=True):
+                    columns[name].append(item)
+                columns["order"].append(order)
+                columns["region"].append(region)
+                columns["metric"].append(metric)
+                columns["value"].append(float("nan") if value is None else float(value))
+        frame = pd.DataFrame(columns)
+        for name in ("tuned_order", "tuning_seed"):
+            frame[name] = frame[name].astype("Int64")
+        frame["cutoff_hz"] = frame["cutoff_hz"].astype(float)
         return frame
 
-    def completed_keys(self) -> set[str]:
-        """Keys of the cells already stored."""
-        return set(self.load()["cell_key"])
+    def tunings_frame(self) -> pd.DataFrame:
+        """One row per stored tuning: its key fields, params (canonical JSON), loss,
+        evaluations, seconds."""
+        records = [{**{n: r[n] for n in TUNING_KEY_FIELDS}, "params": canonical(r["params"]),
+                    "loss": r["loss"], "evaluations": r["evaluations"], "seconds": r["seconds"]}
+                   for r in self.tunings.records.values()]  # fmt: skip
+        return pd.DataFrame(records, columns=[*TUNING_KEY_FIELDS, "params", "loss",
+                                              "evaluations", "seconds"])  # fmt: skip
 
-    def append(self, rows: Iterable[Mapping[str, Any]]) -> None:
-        """Append one cell's rows in a single write, then flush them to disk."""
-        buffer = io.StringIO()
-        _write_rows(buffer, rows)
-        data = buffer.getvalue().encode("utf-8")
-        fd = os.open(self.path, os.O_WRONLY | os.O_APPEND)
-        try:
-            os.write(fd, data)
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-
-    def load(self) -> pd.DataFrame:
-        """All stored rows as a DataFrame (``params`` kept as canonical JSON)."""
-        return self._parse(self.path.read_text(encoding="utf-8"))
+    def revisions(self) -> set[str]:
+        """Git revisions of the code that computed the stored cells."""
+        used = {record["run"] for record in self.cells.records.values()}
+        return {self.cells.runs.get(run, {}).get("git_rev", "unknown") for run in used}
 
 
-def _write_rows(handle, rows: Iterable[Mapping[str, Any]]) -> None:
-    writer = csv.DictWriter(handle, fieldnames=COLUMNS, lineterminator="\n")
-    for row in rows:
-        writer.writerow({column: _format(row[column]) for column in COLUMNS})
+_FIXED = ("task", "method", "params", "seed", "role", *ROLE_FIELDS, "run", "git_rev",
+          "finished_utc", "elapsed_s")  # fmt: skip
+FRAME_COLUMNS = (*_FIXED, "order", "region", "metric", "value")
 
 
-def _format(value: Any) -> Any:
-    # repr() of a float round-trips exactly, so stored numbers are bit-identical on reload.
-    if isinstance(value, float):
-        return repr(value)
-    return value
+def _number(value: Any) -> float | None:
+    """The value as a float, None for NaN (stored as JSON null)."""
+    number = float(value)
+    if number != number:
+        return None
+    return number
 
 
 def expand_params(frame: pd.DataFrame) -> pd.DataFrame:

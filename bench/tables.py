@@ -1,37 +1,108 @@
-"""Tables rendered from stored result rows only (never from live objects)."""
+"""Tables rendered from stored rows only (never from live objects), for people and for programs.
+
+Every table has one row per *entry*: a method, its parameters and their role (a preset, tuned
+by a criterion for a derivative, a variant). The Markdown names the row by its role
+(``preset (paper)``, ``oracle-tuned for ẍ``) and prints parameters rounded to 4 significant
+digits; the CSV beside it keeps full precision and the role as columns.
+"""
 
 from __future__ import annotations
 
+import json
+import math
+import os
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from diffbench.bench.stats import confidence_interval, ranking
+from diffbench import methods
+from diffbench.bench.roles import ORDER_SYMBOLS, Role
+from diffbench.bench.stats import confidence_interval
 
-ORDER_LABELS = {0: "x", 1: "ẋ", 2: "ẍ"}
-REGION_LABELS = {"interior": "interior", "valid": "full"}
-KEYS = ["method", "params", "preset"]
+ENTRY_KEYS = ["method", "params", "role"]
+ROLE_COLUMNS = ["origin", "preset", "by", "criterion", "tuned_order", "tuning_seed", "cutoff_hz",
+                "variant"]  # fmt: skip
+REGION_LABELS = {"interior": "interior", "valid": "own valid samples"}
 
 # (column label, metric, derivative order, region)
 RMSE_COLUMNS = [
-    (f"RMSE {ORDER_LABELS[order]} {REGION_LABELS[region]}", "rmse", order, region)
-    for region in ("interior", "valid")
-    for order in (0, 1, 2)
-] + [("coverage ẋ", "coverage", 1, "valid")]
+    *((f"RMSE {ORDER_SYMBOLS[n]} interior", "rmse", n, "interior") for n in (1, 2, 0)),
+    *((f"RMSE {ORDER_SYMBOLS[n]} own valid", "rmse", n, "valid") for n in (1, 2, 0)),
+    ("coverage ẋ", "coverage", 1, "valid"),
+]
 DECOMPOSITION_COLUMNS = [
-    (f"{ORDER_LABELS[order]} {part}", metric, order, "interior")
-    for order in (1, 2)
+    (f"{ORDER_SYMBOLS[n]} {part}", metric, n, "interior")
+    for n in (1, 2)
     for part, metric in (("total", "rmse"), ("bias", "bias_rmse"), ("noise", "noise_rmse"))
 ]
 
 
-def summarise(rows: pd.DataFrame) -> pd.DataFrame:
+class StoreInconsistency(RuntimeError):
+    """Stored rows break an invariant of the store (an internal error, never user input)."""
+
+
+# --- labels ----------------------------------------------------------------------------------
+def format_value(value) -> str:
+    """A parameter value for people: floats to 4 significant digits, others as they are."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return str(value)
+    if isinstance(value, int):
+        return str(value)
+    return f"{value:.4g}"
+
+
+def readable_params(method: str, params: str) -> str:
+    """``order=6, cutoff_hz=25`` in the method's declaration order (4 significant digits)."""
+    values = json.loads(params)
+    try:
+        order = [spec.name for spec in methods.params_of(methods.method_class(method))]
+    except ValueError:  # a method no longer registered (e.g. a plugin not loaded)
+        order = []
+    names = [n for n in order if n in values] + sorted(set(values) - set(order))
+    return ", ".join(f"{name}={format_value(values[name])}" for name in names)
+
+
+def role_of(row) -> Role:
+    """The :class:`Role` of a row, from its ``role`` column (the stored canonical JSON)."""
+    return Role(**json.loads(row["role"]))
+
+
+def label_entries(frame: pd.DataFrame) -> pd.DataFrame:
+    """Add ``setting`` (the role's label) and ``parameters`` (readable) and sort the entries:
+    by method, then presets, variants, tuned (by criterion and order)."""
+    frame = frame.copy()
+    roles = [role_of(row) for _, row in frame.iterrows()]
+    frame.insert(1, "setting", [role.label for role in roles])
+    frame.insert(2, "parameters", [readable_params(m, p) for m, p in
+                                   zip(frame["method"], frame["params"], strict=True)])  # fmt: skip
+    frame["_sort"] = [role.sort_key for role in roles]
+    frame = frame.sort_values(["method", "_sort", "params"], kind="stable").drop(columns="_sort")
+    return frame.reset_index(drop=True)
+
+
+# --- statistics over seeds -----------------------------------------------------------------
+def check_unique_seeds(rows: pd.DataFrame, keys: Sequence[str] = ENTRY_KEYS) -> None:
+    """Raise :class:`StoreInconsistency` if an entry has two rows for one seed and score."""
+    columns = [*keys, "metric", "region", "order", "seed"]
+    duplicated = rows.duplicated(columns, keep=False)
+    if duplicated.any():
+        first = rows[duplicated].iloc[0]
+        raise StoreInconsistency(
+            f"{int(duplicated.sum())} stored rows repeat a seed of an entry (e.g. "
+            f"{first['method']} seed {first['seed']} {first['metric']}); the store must hold "
+            "each cell once"
+        )
+
+
+def summarise(rows: pd.DataFrame, keys: Sequence[str] = ENTRY_KEYS) -> pd.DataFrame:
     """Mean, sample std (ddof=1), 95 % CI half-width of the mean (Student t) and seed count of
-    every metric per method/parameters, region and order. Rows are sorted first, so the same
-    rows give the same sums in any stored order.
-    """
-    ordered = rows.sort_values([*KEYS, "metric", "region", "order", "seed"], kind="stable")
-    grouped = ordered.groupby([*KEYS, "metric", "region", "order"], sort=True)["value"]
+    every metric per entry, region and order. Rows are sorted first, so the same rows give the
+    same sums in any stored order."""
+    check_unique_seeds(rows, keys)
+    keys = list(keys)
+    ordered = rows.sort_values([*keys, "metric", "region", "order", "seed"], kind="stable")
+    grouped = ordered.groupby([*keys, "metric", "region", "order"], sort=True)["value"]
     summary = grouped.agg(
         mean="mean",
         std=lambda v: float(np.std(v, ddof=1)) if len(v) > 1 else float("nan"),
@@ -41,254 +112,119 @@ def summarise(rows: pd.DataFrame) -> pd.DataFrame:
     return summary.reset_index()
 
 
+def entries(rows: pd.DataFrame) -> pd.DataFrame:
+    """One row per entry: method, params, role and the role's columns."""
+    columns = [*ENTRY_KEYS, *ROLE_COLUMNS]
+    return rows[columns].drop_duplicates(ENTRY_KEYS).reset_index(drop=True)
+
+
 def wide_table(rows: pd.DataFrame, columns) -> pd.DataFrame:
-    """One row per method/parameters with ``<label> mean``, ``<label> std`` and ``<label> ci95``
-    per column ``(label, metric, order, region)``; methods lacking a metric get NaN there."""
-    summary = summarise(rows).set_index([*KEYS, "metric", "region", "order"])
-    records = []
-    for keys, _ in summary.groupby(level=[0, 1, 2], sort=True):
-        record = dict(zip(KEYS, keys, strict=True))
-        seeds = []
-        for label, metric, order, region in columns:
-            index = (*keys, metric, region, order)
-            if index in summary.index:
-                found = summary.loc[index]
-                record[f"{label} mean"], record[f"{label} std"] = found["mean"], found["std"]
-                record[f"{label} ci95"] = found["ci95"]
-                seeds.append(int(found["seeds"]))
-            else:
-                record[f"{label} mean"] = record[f"{label} std"] = float("nan")
-                record[f"{label} ci95"] = float("nan")
-        record["seeds"] = min(seeds) if seeds else 0
-        records.append(record)
-    return pd.DataFrame(records)
+    """One row per entry (labelled, see :func:`label_entries`) with ``<label> mean``,
+    ``<label> std`` and ``<label> ci95`` per column ``(label, metric, order, region)`` (NaN
+    where an entry lacks that score) and ``seeds`` (the fewest seeds of its columns)."""
+    summary = summarise(rows).set_index([*ENTRY_KEYS, "metric", "region", "order"])
+    table = entries(rows)
+    seeds = []
+    for label, metric, order, region in columns:
+        for statistic in ("mean", "std", "ci95"):
+            values = []
+            for _, entry in table.iterrows():
+                index = (entry["method"], entry["params"], entry["role"], metric, region, order)
+                values.append(summary[statistic].get(index, float("nan")))
+            table[f"{label} {statistic}"] = values
+        seeds.append([summary["seeds"].get((e["method"], e["params"], e["role"], metric, region,
+                                            order), np.nan) for _, e in table.iterrows()])  # fmt: skip
+    table["seeds"] = pd.array(np.nanmin(np.array(seeds, dtype=float), axis=0).astype(int)
+                              if seeds and len(table) else [], dtype="Int64")  # fmt: skip
+    return label_entries(table)
 
 
-def rmse_wide(rows: pd.DataFrame) -> pd.DataFrame:
-    """RMSE of x, ẋ, ẍ on the interior and on each method's valid samples, with coverage."""
-    return wide_table(rows, RMSE_COLUMNS)
-
-
-def _pm(mean: float, std: float) -> str:
+# --- Markdown --------------------------------------------------------------------------------
+def plus_minus(mean: float, half: float) -> str:
+    """``mean ± half`` (4 and 2 significant digits); ``± 0`` for a deterministic number."""
     if not np.isfinite(mean):
         return "—"
-    if not np.isfinite(std):
+    if not np.isfinite(half):
         return f"{mean:.4g}"
-    if std <= 1e-12 * abs(mean):  # a deterministic number (e.g. a bias): rounding, not spread
+    if half <= 1e-12 * abs(mean):
         return f"{mean:.4g} ± 0"
-    return f"{mean:.4g} ± {std:.2g}"
+    return f"{mean:.4g} ± {half:.2g}"
 
 
-def to_markdown(wide: pd.DataFrame, title: str, notes: str = "") -> str:
-    """A wide table as Markdown: ``mean ± h`` per column (h the 95 % confidence half-width of
-    the mean over seeds; the std is in the CSV), then the presets' sources."""
-    labels = [c[: -len(" mean")] for c in wide.columns if c.endswith(" mean")]
-    header = ["method", "parameters", *labels, "seeds"]
-    lines = [f"# {title}", "", "| " + " | ".join(header) + " |",
-             "|" + "|".join("---" for _ in header) + "|"]  # fmt: skip
-    for _, row in wide.iterrows():
-        cells = [row["method"], f"`{row['params']}`"]
-        cells += [
-            f"{row[f'{label} mean']:.3f}" if label.startswith("coverage")
-            else _pm(row[f"{label} mean"], row[f"{label} ci95"])
-            for label in labels
-        ]  # fmt: skip
-        cells.append(str(row["seeds"]))
-        lines.append("| " + " | ".join(cells) + " |")
-    sources = "; ".join(f"{row['method']}: {row['preset']}" for _, row in wide.iterrows())
-    lines += (
-        ["", notes, "", f"Presets — {sources}", ""] if notes else ["", f"Presets — {sources}", ""]
-    )
+def markdown_table(frame: pd.DataFrame) -> str:
+    """A frame as a GitHub Markdown table (pipes in cells escaped so columns stay aligned)."""
+    escaped = frame.astype(str).apply(lambda column: column.str.replace("|", "\\|"))
+    escaped.columns = [str(c).replace("|", "\\|") for c in frame.columns]
+    return escaped.to_markdown(index=False, disable_numparse=True)
+
+
+def display_frame(wide: pd.DataFrame, columns) -> pd.DataFrame:
+    """The people's view of :func:`wide_table`: method, setting, parameters, ``mean ± CI``."""
+    shown = wide[["method", "setting", "parameters"]].copy()
+    for label, metric, _, _ in columns:
+        if metric == "coverage":
+            shown[label] = [f"{v:.3f}" if np.isfinite(v) else "—" for v in wide[f"{label} mean"]]
+        else:
+            shown[label] = [plus_minus(m, h) for m, h in
+                            zip(wide[f"{label} mean"], wide[f"{label} ci95"], strict=True)]  # fmt: skip
+    shown["seeds"] = wide["seeds"].astype(str)
+    return shown
+
+
+def write_text(path: Path, text: str) -> Path:
+    """Write ``text`` atomically (temporary file, then rename): readers never see half a file."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    temporary.write_text(text, encoding="utf-8")
+    os.replace(temporary, path)
+    return path
+
+
+def write_csv(path: Path, frame: pd.DataFrame) -> Path:
+    return write_text(path, frame.to_csv(index=False))
+
+
+def write_report(directory: Path, stem: str, csv_frame: pd.DataFrame, shown: pd.DataFrame,
+                 title: str, legend: str = "") -> list[Path]:  # fmt: skip
+    """``<stem>.md`` (title, table, legend) and ``<stem>.csv`` (full precision)."""
+    text = f"# {title}\n\n{markdown_table(shown)}\n"
+    if legend:
+        text += f"\n{legend}\n"
+    return [write_text(directory / f"{stem}.md", text),
+            write_csv(directory / f"{stem}.csv", csv_frame)]  # fmt: skip
+
+
+def csv_view(wide: pd.DataFrame) -> pd.DataFrame:
+    """The CSV side of a wide table: entry, role columns, then every statistic."""
+    return wide
+
+
+def legend(rows: pd.DataFrame, extra: str = "") -> str:
+    """One short legend: what each setting in these rows means (presets with their source)."""
+    from diffbench.bench.roles import CRITERION_LEGEND, CRITERION_NAMES
+
+    lines = []
+    table = entries(rows)
+    presets = table[table["origin"] == "preset"]
+    if len(presets):
+        sources = []
+        for _, row in presets.drop_duplicates("method").iterrows():
+            try:
+                spec = methods.preset_spec(row["method"], row["preset"])
+                sources.append(f"{row['method']}: {spec.source}")
+            except ValueError:
+                sources.append(f"{row['method']}: preset {row['preset']}")
+        key = presets["preset"].iloc[0]
+        lines.append(f"- **preset**: each method's `{key}` preset, by the paper or by diffbench "
+                     f"(sources: `diffbench list`).")  # fmt: skip
+    for criterion in sorted({c for c in table["criterion"] if c}):
+        seeds = sorted({int(s) for s in table[table["criterion"] == criterion]["tuning_seed"]})
+        lines.append(f"- **{CRITERION_NAMES[criterion]}-tuned for n**: {CRITERION_LEGEND[criterion]}"
+                     f" (noise seed {', '.join(map(str, seeds))}, never scored).")  # fmt: skip
+    if extra:
+        lines.append(extra)
     return "\n".join(lines)
 
 
-def write_table(wide: pd.DataFrame, directory: Path, stem: str, title: str, notes: str = ""):
-    """Write ``<stem>.md`` and ``<stem>.csv`` into ``directory``; return their paths."""
-    directory.mkdir(parents=True, exist_ok=True)
-    markdown, csv = directory / f"{stem}.md", directory / f"{stem}.csv"
-    markdown.write_text(to_markdown(wide, title, notes), encoding="utf-8")
-    wide.to_csv(csv, index=False)
-    return [markdown, csv]
-
-
-def write_run_tables(rows: pd.DataFrame, directory: Path, scenario: str) -> list[Path]:
-    """The RMSE table and, where linear methods ran, the bias/noise decomposition table."""
-    written = write_table(
-        rmse_wide(rows), directory, "rmse",
-        f"RMSE per method on `{scenario}` (mean ± 95 % CI of the mean over seeds)",
-        "interior: the scenario's common interior, the same samples for every method; full: "
-        "every sample the method estimates (its coverage of the signal is given for ẋ).",
-    )  # fmt: skip
-    written += write_ranking(rows, directory)
-    if rows["metric"].isin(["bias_rmse", "noise_rmse"]).any():
-        decomposition = wide_table(rows, DECOMPOSITION_COLUMNS)
-        decomposition = decomposition[decomposition["ẋ bias mean"].notna()]
-        written += write_table(
-            decomposition, directory, "decomposition",
-            f"Error decomposition on `{scenario}`: interior RMS of the total error, of the "
-            "bias part and of the noise part (mean ± 95 % CI of the mean over seeds)",
-            "For a linear method D, D(x + e) − x⁽ⁿ⁾ = [D(x) − x⁽ⁿ⁾] + D(e): bias = the method "
-            "on the clean signal minus the truth, noise = the method on the noise alone.",
-        )  # fmt: skip
-    return written
-
-
-IDENTIFICATION_SUMMARY = [
-    ("‖X̂−X‖/‖X‖ (well excited)", "param_error_norm", 0, "identification"),
-    ("τ RMSE joint 1 (N·m)", "torque_rmse.joint1", 0, "identification"),
-    ("τ RMSE joint 2 (N·m)", "torque_rmse.joint2", 0, "identification"),
-    ("q̇ RMSE (rad/s)", "derivative_rmse", 1, "identification"),
-    ("q̈ RMSE (rad/s²)", "derivative_rmse", 2, "identification"),
-    ("σ_ρ (N·m)", "sigma_rho", 0, "identification"),
-    ("cond(W)", "cond_W", 0, "identification"),
-    ("equations", "equations", 0, "identification"),
-]
-
-
-def identification_table(rows: pd.DataFrame, names, truth=None) -> pd.DataFrame:
-    """The paper's table II layout: one row per parameter; per method the mean over seeds of
-    X̂, of its one-sigma σ_X and of %σ_Xr, and (with ``truth``) the relative error in %
-    (mean ± 95 % CI of the mean over seeds)."""
-    indexed = summarise(rows).set_index([*KEYS, "metric", "region", "order"])
-    summary, spread = indexed["mean"], indexed["std"]
-    methods_run = sorted({(m, p, s) for m, p, s, *_ in summary.index})
-    records = []
-    for index, name in enumerate(names):
-        record = {"parameter": name}
-        if truth is not None:
-            record["true"] = float(truth[index])
-        for method, params, preset in methods_run:
-
-            def value(metric, method=method, params=params, preset=preset):
-                return summary.get((method, params, preset, metric, "identification", 0))
-
-            record[f"{method} X̂"] = value(f"estimate.{name}")
-            record[f"{method} σ"] = value(f"sigma.{name}")
-            record[f"{method} %σXr"] = value(f"rel_sigma_pct.{name}")
-            if truth is not None:
-                key = (method, params, preset, f"rel_error.{name}", "identification", 0)
-                record[f"{method} error % mean"] = 100 * summary.get(key)
-                record[f"{method} error % std"] = 100 * spread.get(key)
-        records.append(record)
-    return pd.DataFrame(records)
-
-
-def identification_markdown(table: pd.DataFrame, title: str, notes: str,
-                            reference: str = "true") -> str:  # fmt: skip
-    """Markdown of :func:`identification_table`: the ``reference`` column if present (the
-    truth, or a published model), then one column per method with X̂, σ, %σ_Xr and the
-    error."""
-    methods_run = [c[: -len(" X̂")] for c in table.columns if c.endswith(" X̂")]
-    shown = [reference] if reference in table else []
-    header = ["parameter", *shown, *methods_run]
-    lines = [f"# {title}", "", "| " + " | ".join(header) + " |",
-             "|" + "|".join("---" for _ in header) + "|"]  # fmt: skip
-    for _, row in table.iterrows():
-        cells = [row["parameter"]] + [f"{row[column]:.4g}" for column in shown]
-        for method in methods_run:
-            text = (f"{row[f'{method} X̂']:.4g} (σ {row[f'{method} σ']:.2g}, "
-                    f"{row[f'{method} %σXr']:.3g} %)")  # fmt: skip
-            if f"{method} error % mean" in table:
-                mean, std = row[f"{method} error % mean"], row[f"{method} error % std"]
-                text += f"; err {mean:+.2f} ± {std:.2f} %"
-            cells.append(text)
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join([*lines, "", notes, ""])
-
-
-def write_identification_table(table: pd.DataFrame, directory: Path, title: str, notes: str,
-                               reference: str = "true") -> list[Path]:  # fmt: skip
-    """Write ``table2.csv`` and ``table2.md`` (see :func:`identification_markdown`)."""
-    directory.mkdir(parents=True, exist_ok=True)
-    csv, markdown = directory / "table2.csv", directory / "table2.md"
-    table.to_csv(csv, index=False)
-    markdown.write_text(identification_markdown(table, title, notes, reference), encoding="utf-8")
-    return [markdown, csv]
-
-
-DFKI_SUMMARY = [
-    ("τ RMSE joint 1 (N·m)", "torque_rmse.joint1", 0, "identification"),
-    ("lab τ RMSE joint 1", "lab_torque_rmse.joint1", 0, "identification"),
-    ("τ RMSE joint 2 (N·m)", "torque_rmse.joint2", 0, "identification"),
-    ("lab τ RMSE joint 2", "lab_torque_rmse.joint2", 0, "identification"),
-    ("q̇ vs driver (rad/s)", "velocity_rmse_vs_driver", 1, "identification"),
-    ("cond(W)", "cond_W", 0, "identification"),
-]
-
-
-def write_ranking(rows: pd.DataFrame, directory: Path) -> list[Path]:
-    """``ranking.md``/``.csv``: methods ranked by interior RMSE of ẋ and of ẍ, each with its
-    95 % CI and a paired test (t and Wilcoxon over the common seeds) against the next one."""
-    frames, lines = [], ["# Rankings by interior RMSE (paired tests over the same seeds)", ""]
-    for order in (1, 2):
-        table = ranking(rows, "rmse", order, "interior")
-        table.insert(0, "derivative", ORDER_LABELS[order])
-        frames.append(table)
-        lines += [f"## {ORDER_LABELS[order]}", "",
-                  "| rank | method | RMSE mean ± 95 % CI | seeds | better than next? (t p, "
-                  "Wilcoxon p) |", "|---|---|---|---|---|"]  # fmt: skip
-        for rank, row in table.iterrows():
-            verdict = "—"
-            if pd.notna(row["significant_vs_next"]):
-                word = "yes" if row["significant_vs_next"] else "not significant"
-                verdict = f"{word} ({row['vs_next_t_p']:.2g}, {row['vs_next_wilcoxon_p']:.2g})"
-            name = row["method"]
-            if str(row["preset"]).startswith("tuned"):
-                name += f" ({row['preset'].split(' on seed')[0]})"
-            lines.append(f"| {rank + 1} | {name} | {_pm(row['mean'], row['ci95'])} | "
-                         f"{row['seeds']} | {verdict} |")  # fmt: skip
-        lines.append("")
-    directory.mkdir(parents=True, exist_ok=True)
-    markdown, csv = directory / "ranking.md", directory / "ranking.csv"
-    markdown.write_text("\n".join(lines), encoding="utf-8")
-    pd.concat(frames).to_csv(csv, index=False)
-    return [markdown, csv]
-
-
-def write_tuning_summary(rows: pd.DataFrame, log: pd.DataFrame, directory: Path) -> list[Path]:
-    """``tuning.md``: per method and derivative, the interior RMSE on the scoring seeds of the
-    preset and of each tuned parameter set (looked up by its parameters, so a tuning that lands
-    on the preset is still found), the no-truth / oracle ratio, and the tuning time."""
-    import json
-
-    from diffbench.bench.store import canonical_params
-
-    chosen = rows[(rows["metric"] == "rmse") & (rows["region"] == "interior")]
-    means = chosen.groupby(["method", "params", "order"])["value"].mean()
-    presets = chosen[~chosen["preset"].astype(str).str.startswith("tuned")]
-    lines = ["# Tuning: preset vs tuned (interior RMSE on the scoring seeds, never the tuning "
-             "seed)", "",
-             "| method | n | preset | oracle-tuned | no-truth-tuned | no-truth / oracle | "
-             "pynumdiff-tuned | tuning s (oracle, no-truth, pynumdiff) |",
-             "|---|---|---|---|---|---|---|---|"]  # fmt: skip
-    records = []
-    for method in sorted(log["method"].unique()):
-        for order in sorted(log[log["method"] == method]["order"].unique()):
-            found = {}
-            for criterion in ("oracle", "no-truth", "pynumdiff"):
-                hit = log[(log["method"] == method) & (log["order"] == order)
-                          & (log["criterion"] == criterion)]  # fmt: skip
-                if len(hit):
-                    params = canonical_params(json.loads(hit["params"].iloc[-1]))
-                    found[criterion] = (means.get((method, params, order), float("nan")),
-                                        float(hit["seconds"].iloc[-1]))  # fmt: skip
-                else:
-                    found[criterion] = (float("nan"), float("nan"))
-            mine = presets[(presets["method"] == method) & (presets["order"] == order)]
-            preset = float(mine.groupby("params")["value"].mean().iloc[0]) if len(mine) else (
-                float("nan"))  # fmt: skip
-            oracle, no_truth, pynumdiff = (found[c][0] for c in ("oracle", "no-truth",
-                                                                 "pynumdiff"))  # fmt: skip
-            ratio = no_truth / oracle if oracle > 0 else float("nan")
-            times = ", ".join(f"{found[c][1]:.2f}" for c in ("oracle", "no-truth", "pynumdiff"))
-            records.append({"method": method, "order": int(order), "preset": preset,
-                            "oracle": oracle, "no_truth": no_truth,
-                            "no_truth_over_oracle": ratio, "pynumdiff": pynumdiff,
-                            "seconds": times})  # fmt: skip
-            lines.append(f"| {method} | {ORDER_LABELS[int(order)]} | {preset:.4g} | "
-                         f"{oracle:.4g} | {no_truth:.4g} | {ratio:.3f} | {pynumdiff:.4g} | "
-                         f"{times} |")  # fmt: skip
-    markdown, csv = directory / "tuning.md", directory / "tuning_summary.csv"
-    markdown.write_text("\n".join([*lines, ""]), encoding="utf-8")
-    pd.DataFrame(records).to_csv(csv, index=False)
-    return [markdown, csv]
+def nan_to_dash(value: float, digits: int = 4) -> str:
+    return "—" if value is None or not math.isfinite(value) else f"{value:.{digits}g}"

@@ -37,6 +37,10 @@ from scipy import integrate, optimize
 CRITERIA = ("oracle", "no-truth", "pynumdiff")
 
 
+class NoRoomToTune(ValueError):
+    """A method's tuning range leaves nothing to search at this step and record length."""
+
+
 @dataclass(frozen=True)
 class Dimension:
     """One searched parameter: its coordinate in the optimiser and back."""
@@ -81,7 +85,7 @@ def search_space(name: str, dt: float, n_samples: int) -> list[Dimension]:
             low = max(low, 4 * dt)
             high = min(high, dt * (n_samples // 3))
         if low >= high:
-            raise ValueError(
+            raise NoRoomToTune(
                 f"`{spec.name}` has no room to tune at dt={dt!r} s on {n_samples} samples "
                 f"(range {spec.tune_low}..{spec.tune_high})"
             )
@@ -213,8 +217,13 @@ def tune(
         raise ValueError(f"`criterion` must be one of {', '.join(CRITERIA)}, got {criterion!r}")
     if order not in (1, 2):
         raise ValueError(f"`order` must be 1 or 2, got {order!r}")
-    if criterion != "oracle" and cutoff_hz is None:
-        raise ValueError(f"the {criterion} criterion needs `cutoff_hz` (a bandlimit guess)")
+    if criterion != "oracle":
+        if cutoff_hz is None:
+            raise ValueError(f"the {criterion} criterion needs `cutoff_hz` (a bandlimit guess)")
+        nyquist = 0.5 / realisation.dt_s
+        if not (isinstance(cutoff_hz, (int, float)) and 0 < cutoff_hz < nyquist):
+            raise ValueError(f"`cutoff_hz` must lie strictly inside (0, {nyquist:g}) Hz (the "
+                             f"Nyquist frequency), got {cutoff_hz!r}")  # fmt: skip
     if criterion == "no-truth" and not methods.method_class(name).linear:
         raise ValueError(f"the no-truth criterion needs a linear method; use 'pynumdiff' for "
                          f"{name!r}")  # fmt: skip

@@ -153,6 +153,25 @@ class Sinusoid(NoiseModel):
         wave = self.amplitude * np.sin(2.0 * np.pi * self.frequency_hz * t + self.phase_rad)
         return _time_column(wave, x)
 
+    def aliased_frequency_hz(self, dt_s: float) -> float:
+        r"""The frequency this sinusoid appears at when sampled every ``dt_s`` seconds.
+
+        .. math:: f_a = \left| f - \frac{1}{\Delta t}\,\mathrm{round}(f\,\Delta t) \right|
+
+        0 means every sample sees the same phase: the disturbance is the constant
+        :math:`a \sin\varphi` (nothing at all for :math:`\varphi = 0`), not noise. E.g. 200 Hz
+        sampled every 10 ms lands on its own zeros.
+
+        >>> Sinusoid(amplitude=0.2, frequency_hz=200.0).aliased_frequency_hz(0.01)
+        0.0
+        >>> round(Sinusoid(amplitude=0.2, frequency_hz=200.0).aliased_frequency_hz(0.003), 6)
+        133.333333
+        """
+        dt_s = check_real("dt_s", dt_s, gt=0)
+        cycles = self.frequency_hz * dt_s
+        folded = abs(cycles - round(cycles))
+        return 0.0 if folded < 1e-9 else folded / dt_s
+
     def describe(self) -> str:
         return (
             f"sinusoid(amplitude={self.amplitude!r}, frequency_hz={self.frequency_hz!r}, "

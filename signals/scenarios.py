@@ -346,7 +346,21 @@ def _grid_noise(kind: str, level: float) -> NoiseStack:
 
 
 def grid_scenario_name(kind: str, level: float, step_s: float) -> str:
+    """The name of a grid scenario, e.g. ``grid-sinusoid-0.2-10ms``."""
     return f"grid-{kind}-{level:g}-{step_s * 1e3:g}ms"
+
+
+def grid_scenario_names() -> list[str]:
+    """Every scenario of the grid (noise type x level x step)."""
+    return [grid_scenario_name(kind, level, step) for kind in GRID_NOISE_TYPES
+            for level in GRID_NOISE_LEVELS for step in GRID_STEPS_S]  # fmt: skip
+
+
+def vanishing_disturbances(scenario: Scenario) -> list[str]:
+    """The sinusoidal disturbances of ``scenario`` that sampling at its step aliases to 0 Hz
+    (constant samples, so no noise at all): e.g. 200 Hz at Ts = 10 ms."""
+    return [model.describe() for model in scenario.noise.models
+            if isinstance(model, Sinusoid) and model.aliased_frequency_hz(scenario.dt_s) == 0.0]
 
 
 for _kind in GRID_NOISE_TYPES:

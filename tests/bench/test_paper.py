@@ -1,9 +1,8 @@
 """The paper's figures and table I: the numbers they must show."""
 
 import numpy as np
-import pandas as pd
 import pytest
-from diffbench.bench import paper, runner
+from diffbench.bench import paper
 from diffbench.bench.cli import main
 
 
@@ -41,42 +40,10 @@ def test_figure1_errors_are_finite_where_the_methods_estimate():
     assert data["jacobi_velocity_error"].isna().sum() == 2 * 105
 
 
-def test_table1_directions_measured():
-    """Table I of the paper: kappa=mu up -> noise up, truncation (bias) down; q up -> noise up,
-    bias down; T up -> noise down, bias up. Checked on ẋ and ẍ, mean of 2 seeds."""
-    rows = []
-    for cell in paper.influence_cells(range(2)):
-        for row in runner.compute_cell(cell):
-            rows.append({"params": tuple(sorted(cell.params.items())), **row})
-    frame = pd.DataFrame(rows)
-    interior = frame[frame["region"] == "interior"]
-    means = interior.groupby(["params", "order", "metric"])["value"].mean()
-    base = dict(paper.influence_cells(range(1))[0].params)
-
-    def value(change, order, metric):
-        return means[(tuple(sorted({**base, **change}.items())), order, metric)]
-
-    for order in (1, 2):
-        for low, high, noise_up in (
-            ({"kappa": 6.0, "mu": 6.0}, {"kappa": 24.0, "mu": 24.0}, True),
-            ({"q": 2}, {"q": 10}, True),
-            (
-                {"window_s": 0.1, "accel_window_s": 0.1},
-                {"window_s": 0.3, "accel_window_s": 0.3},
-                False,
-            ),
-        ):
-            noise_rises = value(high, order, "noise_rmse") > value(low, order, "noise_rmse")
-            bias_falls = value(high, order, "bias_rmse") < value(low, order, "bias_rmse")
-            assert noise_rises == noise_up and bias_falls == noise_up, (low, high, order)
-
-
 def test_paper_figures_command_writes_everything(tmp_path, capsys):
-    assert main(["paper-figures", "--out", str(tmp_path), "--seeds", "1", "--no-progress"]) == 0
+    assert main(["paper-figures", "--out", str(tmp_path)]) == 0
     for name in ("fig1_errors", "fig2_bode", "fig3_parameters"):
         assert (tmp_path / "paper-figures" / f"{name}.png").stat().st_size > 10_000
         assert (tmp_path / "paper-figures" / f"{name}.csv").exists()
     frequency = (tmp_path / "paper-figures" / "frequency.md").read_text()
     assert "| jacobi | 2 |" in frequency
-    table = (tmp_path / "jacobi-influence" / "table1.md").read_text()
-    assert table.count("| jacobi |") == len(paper.INFLUENCE_VARIANTS)

@@ -1,0 +1,87 @@
+"""Where work runs: in this process, or on local worker processes that never outlive the run.
+
+``ordered_map(function, items, jobs)`` yields ``function(item)`` in the order of ``items``.
+With ``jobs`` > 1 it uses a :class:`concurrent.futures.ProcessPoolExecutor`; when the caller
+stops iterating (an exception, Ctrl-C, SIGTERM turned into :class:`Terminated`) pending work is
+cancelled and every worker is terminated and joined. A worker whose parent dies without that
+chance (SIGKILL) notices within a quarter second and exits, so no process is left behind.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+import threading
+import time
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from typing import Any
+
+PARENT_POLL_S = 0.25
+
+
+class Terminated(BaseException):
+    """Raised in the main process when it receives SIGTERM (see :func:`terminate_on_sigterm`)."""
+
+
+def terminate_on_sigterm() -> None:
+    """Turn SIGTERM into a :class:`Terminated` exception, so cleanup code runs."""
+
+    def handler(signum, frame):
+        raise Terminated
+
+    signal.signal(signal.SIGTERM, handler)
+
+
+def _watch_parent(parent: int) -> None:
+    while True:
+        if os.getppid() != parent:
+            os._exit(1)
+        time.sleep(PARENT_POLL_S)
+
+
+def _worker_start(parent: int) -> None:
+    # Ctrl-C reaches the whole process group: the parent handles it and stops the workers.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
+
+
+def _context():
+    methods = multiprocessing.get_all_start_methods()
+    return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+
+
+def ordered_map(function: Callable[[Any], Any], items: Sequence[Any], jobs: int = 1) -> Iterator:
+    """``function(item)`` for each item, in order, on ``jobs`` local processes (1: here)."""
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise ValueError(f"`jobs` must be an integer >= 1, got {jobs!r}")
+    if jobs == 1 or len(items) <= 1:
+        for item in items:
+            yield function(item)
+        return
+    pool = ProcessPoolExecutor(max_workers=min(jobs, len(items)), mp_context=_context(),
+                               initializer=_worker_start, initargs=(os.getpid(),))  # fmt: skip
+    try:
+        futures = [pool.submit(function, item) for item in items]
+        for future in futures:
+            yield future.result()
+    finally:
+        stop(pool)
+
+
+def stop(pool: ProcessPoolExecutor) -> None:
+    """Cancel pending work and terminate and join every worker process of ``pool``."""
+    # ProcessPoolExecutor has no public way to stop running workers before Python 3.14
+    # (terminate_workers); its process table is the only handle on them.
+    processes = list(getattr(pool, "_processes", {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        if process.is_alive():
+            process.terminate()
+    for process in processes:
+        process.join(timeout=5)
+        if process.is_alive():
+            process.kill()
+            process.join(timeout=5)

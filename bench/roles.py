@@ -1,0 +1,94 @@
+"""What a row of a table is: the role of a parameter set (a preset, tuned, a variant), as data.
+
+A :class:`Role` is stored with every cell as columns (``origin``, ``preset``, ``by``,
+``criterion``, ``tuned_order``, ``tuning_seed``, ``cutoff_hz``, ``variant``); tables read those
+columns and print :meth:`Role.label`, never parse prose.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+ORDER_SYMBOLS = {0: "x", 1: "ẋ", 2: "ẍ"}
+CRITERION_NAMES = {"oracle": "oracle", "no-truth": "no-truth", "pynumdiff": "PyNumDiff-loss"}
+CRITERION_LEGEND = {
+    "oracle": "minimises the interior RMSE against the truth on the tuning seed",
+    "no-truth": "minimises a data-only spectral estimate of that RMSE, from a bandlimit guess "
+    "f_c (linear methods only)",
+    "pynumdiff": "minimises PyNumDiff's data-only loss (re-integration RMSE + γ·TV, γ from f_c)",
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class Role:
+    """Where a parameter set comes from.
+
+    Parameters
+    ----------
+    origin : {"preset", "tuned", "variant"}
+    preset : str
+        The preset key (``"paper-signal"``, ``"robot"``, ``"default"``) for a preset or the
+        base of a variant; empty for tuned parameters.
+    by : str
+        Who chose the preset: ``"paper"``, ``"diffbench"`` or ``"defaults"``.
+    criterion : str
+        Tuning criterion (``"oracle"``, ``"no-truth"``, ``"pynumdiff"``); empty otherwise.
+    tuned_order : int or None
+        The derivative order tuned for.
+    tuning_seed : int or None
+        The noise seed tuned on (never a scored seed).
+    cutoff_hz : float or None
+        The bandlimit guess of a data-only criterion.
+    variant : str
+        What a variant changes from its base preset (e.g. ``"q = 2"``).
+    """
+
+    origin: str
+    preset: str = ""
+    by: str = ""
+    criterion: str = ""
+    tuned_order: int | None = None
+    tuning_seed: int | None = None
+    cutoff_hz: float | None = None
+    variant: str = ""
+
+    def __post_init__(self) -> None:
+        if self.origin not in ("preset", "tuned", "variant"):
+            raise ValueError(f"`origin` must be preset, tuned or variant, got {self.origin!r}")
+        if self.origin == "tuned" and (self.criterion not in CRITERION_NAMES
+                                       or self.tuned_order not in (1, 2)):  # fmt: skip
+            raise ValueError("a tuned role needs a criterion and a tuned_order of 1 or 2")
+
+    @classmethod
+    def of_preset(cls, key: str, by: str) -> Role:
+        return cls(origin="preset", preset=key, by=by)
+
+    @classmethod
+    def tuned(cls, criterion: str, order: int, seed: int, cutoff_hz: float | None = None) -> Role:
+        return cls(origin="tuned", criterion=criterion, tuned_order=int(order),
+                   tuning_seed=int(seed),
+                   cutoff_hz=None if cutoff_hz is None else float(cutoff_hz))  # fmt: skip
+
+    def as_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    @property
+    def label(self) -> str:
+        """``preset (paper)``, ``oracle-tuned for ẍ``, ``no-truth-tuned for ẋ (f_c 20 Hz)``,
+        ``variant: q = 2``."""
+        if self.origin == "preset":
+            return "class defaults" if self.by == "defaults" else f"preset ({self.by})"
+        if self.origin == "variant":
+            return f"variant: {self.variant}" if self.variant else "base preset"
+        text = f"{CRITERION_NAMES[self.criterion]}-tuned for {ORDER_SYMBOLS[self.tuned_order]}"
+        if self.cutoff_hz is not None:
+            text += f" (f_c {self.cutoff_hz:.4g} Hz)"
+        return text
+
+    @property
+    def sort_key(self) -> tuple:
+        """Presets first, then variants, then tuned by criterion and order."""
+        rank = {"preset": 0, "variant": 1, "tuned": 2}[self.origin]
+        criterion = list(CRITERION_NAMES).index(self.criterion) if self.criterion else -1
+        return (rank, criterion, self.tuned_order or 0, self.variant, self.tuning_seed or 0)

@@ -1,0 +1,256 @@
+"""Tasks: each kind of benchmark is one object that scores a method on one seed and writes its
+own report. The runner and the CLI never ask what kind of task they hold.
+
+A task has a ``name``, a ``description``, the ``preset`` key of the method presets it runs by
+default, its seeds (``default_seeds``; ``max_seeds`` when the seeds are a fixed set such as the
+folds of a cross-validation), and
+
+* ``lineup(method_names)``: the entries (method, parameters, role) ``diffbench run`` computes;
+* ``score(method, seed)``: tidy score rows (order, region, metric, value) of one cell;
+* ``report(cells, tunings, directory)``: the tables and figures, from stored rows only;
+* ``tuning_data(seed)``: the realisation a tuner works on (signal tasks), or a ValueError.
+
+Adding a kind of benchmark is one subclass and one :func:`register_task` call.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import ClassVar
+
+import pandas as pd
+from diffbench import methods, signals
+from diffbench.bench import reports
+from diffbench.bench.roles import Role
+from diffbench.bench.runner import Entry, preset_entry
+
+_TASKS: dict[str, Task] = {}
+
+
+class Task:
+    """Base of every task (see the module docstring)."""
+
+    name: str
+    description: str
+    preset: str = methods.DEFAULT_PRESET
+    default_seeds: ClassVar[int] = 10
+    max_seeds: ClassVar[int | None] = None
+    kind: ClassVar[str] = "task"
+    listed: bool = True
+
+    def lineup(self, method_names: Sequence[str] | None = None) -> list[Entry]:
+        """Every method named (default: every registered one) at this task's preset."""
+        names = list(method_names) if method_names else methods.available()
+        return [preset_entry(name, self.preset) for name in names]
+
+    def seeds(self, count: int | None) -> range:
+        """The seeds 0..count-1 (``default_seeds`` if None); ValueError past ``max_seeds``."""
+        count = self.default_seeds if count is None else count
+        if self.max_seeds is not None and count > self.max_seeds:
+            raise ValueError(f"{self.name} has {self.max_seeds} seeds (fixed); "
+                             f"--seeds must be at most {self.max_seeds}, got {count}")  # fmt: skip
+        return range(count)
+
+    def score(self, method: methods.Method, seed: int) -> list[dict]:
+        raise NotImplementedError
+
+    def report(self, cells: pd.DataFrame, tunings: pd.DataFrame, directory: Path) -> list[Path]:
+        raise NotImplementedError
+
+    def tuning_data(self, seed: int):
+        raise ValueError(f"task {self.name!r} cannot be tuned (tuning needs a signal task with "
+                         "its truth, e.g. paper-signal)")  # fmt: skip
+
+
+@dataclass(frozen=True, eq=False)
+class SignalTask(Task):
+    """A signal scenario (``diffbench.signals``): each method differentiates the noisy samples
+    and is scored against the exact derivatives, on the common interior and on its own valid
+    samples; linear methods also get the bias and noise parts of their error."""
+
+    scenario: signals.Scenario
+    listed: bool = True
+    kind: ClassVar[str] = "signal"
+
+    @property
+    def name(self) -> str:
+        return self.scenario.name
+
+    @property
+    def description(self) -> str:
+        return self.scenario.description
+
+    @property
+    def preset(self) -> str:
+        return self.scenario.preset
+
+    def score(self, method, seed):
+        from diffbench.bench.frequency import decompose_error
+        from diffbench.bench.scores import score_estimate
+
+        realisation = self.scenario.realise(seed)
+        estimate = method(realisation.x, realisation.dt_s)
+        rows = score_estimate(estimate, realisation.truth, realisation.interior)
+        if method.linear:
+            for order in (1, 2):
+                parts = decompose_error(method, realisation, order)
+                rows += [{"order": order, "region": "interior", "metric": metric, "value": value}
+                         for metric, value in (("bias_rmse", parts.bias),
+                                               ("noise_rmse", parts.noise))]  # fmt: skip
+        return rows
+
+    def tuning_data(self, seed):
+        return self.scenario.realise(seed)
+
+    def report(self, cells, tunings, directory):
+        return reports.signal_report(self.name, self.description, cells, tunings, directory)
+
+
+# Table I of the paper: one parameter raised or lowered from the test-signal preset at a time.
+INFLUENCE_VARIANTS = (
+    ("", {}),
+    ("κ = μ = 6", {"kappa": 6.0, "mu": 6.0}),
+    ("κ = μ = 24", {"kappa": 24.0, "mu": 24.0}),
+    ("q = 2", {"q": 2}),
+    ("q = 10", {"q": 10}),
+    ("T = 0.1 s", {"window_s": 0.1, "accel_window_s": 0.1}),
+    ("T = 0.3 s", {"window_s": 0.3, "accel_window_s": 0.3}),
+)
+
+
+@dataclass(frozen=True, eq=False)
+class JacobiInfluenceTask(SignalTask):
+    """The paper's table I measured: the Jacobi preset with one design parameter moved at a
+    time, on the paper signal: bias (truncation) and noise parts of the error."""
+
+    listed: bool = True
+
+    @property
+    def name(self) -> str:
+        return "jacobi-influence"
+
+    @property
+    def description(self) -> str:
+        return ("Table I of the paper measured: bias and noise parts of the Jacobi error on "
+                "paper-signal as κ = μ, q and T move from the paper's preset.")  # fmt: skip
+
+    def lineup(self, method_names=None):
+        if method_names and list(method_names) != ["jacobi"]:
+            raise ValueError("jacobi-influence runs the jacobi method only")
+        base = methods.preset("jacobi", "paper-signal").params()
+        return [Entry("jacobi", {**base, **change},
+                      Role(origin="variant", preset="paper-signal", by="paper", variant=label))
+                for label, change in INFLUENCE_VARIANTS]  # fmt: skip
+
+    def report(self, cells, tunings, directory):
+        return reports.influence_report(cells, directory)
+
+
+@dataclass(frozen=True, eq=False)
+class RobotSimTask(Task):
+    """A simulated 2R identification (``signals.robot2r``): each method's q̇, q̈ feed IDIM-LS;
+    scored by parameter error (the truth is known), torque prediction on a fresh trajectory
+    and derivative errors."""
+
+    scenario: object
+    listed: bool = True
+    kind: ClassVar[str] = "robot (simulated)"
+
+    @property
+    def name(self) -> str:
+        return self.scenario.name
+
+    @property
+    def description(self) -> str:
+        return self.scenario.description
+
+    @property
+    def preset(self) -> str:
+        return self.scenario.preset
+
+    def score(self, method, seed):
+        from diffbench.bench.robot import score_identification
+
+        return score_identification(method, self.scenario, seed)
+
+    def report(self, cells, tunings, directory):
+        return reports.robot_sim_report(self.scenario, cells, directory)
+
+
+@dataclass(frozen=True, eq=False)
+class DfkiTask(Task):
+    """The real DFKI double pendulum: leave-one-run-out identification over its six runs (a
+    cell's seed is the held-out run), scored by the measured torque of the held-out run."""
+
+    listed: bool = True
+    kind: ClassVar[str] = "robot (real)"
+    default_seeds: ClassVar[int] = 6
+    max_seeds: ClassVar[int] = 6
+
+    @property
+    def spec(self):
+        from diffbench.bench.robot import DfkiCrossValidation
+
+        return DfkiCrossValidation()
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    @property
+    def description(self) -> str:
+        return self.spec.description
+
+    @property
+    def preset(self) -> str:
+        return self.spec.preset
+
+    def score(self, method, seed):
+        from diffbench.bench.robot import score_dfki_fold
+
+        return score_dfki_fold(method, self.spec, seed)
+
+    def report(self, cells, tunings, directory):
+        return reports.dfki_report(cells, directory)
+
+
+def register_task(task: Task) -> Task:
+    """Add ``task`` under its name; ``ValueError`` if the name is taken."""
+    if task.name in _TASKS:
+        raise ValueError(f"a task named {task.name!r} is already registered")
+    _TASKS[task.name] = task
+    return task
+
+
+@functools.cache
+def _register_builtins() -> None:
+    from diffbench.signals import robot2r
+    from diffbench.signals.scenarios import grid_scenario_names
+
+    grid = set(grid_scenario_names())
+    for name in signals.available_scenarios():
+        register_task(SignalTask(signals.get_scenario(name), listed=name not in grid))
+    register_task(JacobiInfluenceTask(signals.get_scenario("paper-signal")))
+    for name in robot2r.available_robot_scenarios():
+        register_task(RobotSimTask(robot2r.get_robot_scenario(name)))
+    register_task(DfkiTask())
+
+
+def available_tasks(listed_only: bool = False) -> list[str]:
+    """Names of the registered tasks, sorted (``listed_only``: without the grid's)."""
+    _register_builtins()
+    return sorted(name for name, task in _TASKS.items() if task.listed or not listed_only)
+
+
+def get_task(name: str) -> Task:
+    """The task registered as ``name``; an unknown name lists the valid ones."""
+    _register_builtins()
+    try:
+        return _TASKS[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown task {name!r}; available: "
+                         f"{', '.join(available_tasks(listed_only=True))} and the grid's "
+                         "(diffbench list)") from None  # fmt: skip
