@@ -100,19 +100,24 @@ def _criteria(text: str) -> list[str]:
     criteria = _name_list(text)
     unknown = [c for c in criteria if c not in CRITERIA]
     if unknown:
-        raise argparse.ArgumentTypeError(f"must be among {', '.join(CRITERIA)}, got "
-                                         f"{', '.join(unknown)}")  # fmt: skip
+        raise argparse.ArgumentTypeError(
+            f"must be among {', '.join(CRITERIA)}, got {', '.join(unknown)}"
+        )
     return criteria
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="diffbench", description=__doc__.splitlines()[0])
-    parser.add_argument("--version", action="version",
-                        version=f"diffbench {metadata.version('diffbench')}")  # fmt: skip
+    parser.add_argument(
+        "--version", action="version", version=f"diffbench {metadata.version('diffbench')}"
+    )
     out = _Parser(add_help=False)
-    out.add_argument("--out", type=Path, default=Path("results"),
-                     help="results directory: reports in OUT/TASK/, the store in OUT/store/ "
-                     "(default results/)")  # fmt: skip
+    out.add_argument(
+        "--out",
+        type=Path,
+        default=Path("results"),
+        help="results directory: reports in OUT/TASK/, the store in OUT/store/ (default results/)",
+    )
     work = _Parser(add_help=False)
     work.add_argument(
         "--jobs",
@@ -149,20 +154,28 @@ def build_parser() -> argparse.ArgumentParser:
     run.set_defaults(handler=_cmd_run)
 
     tune = commands.add_parser(
-        "tune", parents=[out, work, seeds],
+        "tune",
+        parents=[out, work, seeds],
         help="tune methods on a task's tuning seed (stored, reused), score on other seeds",
-    )  # fmt: skip
+    )
     tune.add_argument("method", help="method name, comma-separated names, or 'all'")
     tune.add_argument("task", help="a signal task (see `diffbench list`)")
-    tune.add_argument("--criteria", type=_criteria, default=["oracle"],
-                      help="oracle (against the truth), no-truth (spectral risk, linear methods),"
-                      " pynumdiff (PyNumDiff's loss); comma-separated (default oracle)")  # fmt: skip
+    tune.add_argument(
+        "--criteria",
+        type=_criteria,
+        default=["oracle"],
+        help="oracle (against the truth), no-truth (spectral risk, linear methods),"
+        " pynumdiff (PyNumDiff's loss); comma-separated (default oracle)",
+    )
     tune.add_argument(
         "--orders", type=_orders, default=[2], help="derivatives tuned for: 1, 2 or 1,2 (default 2)"
     )
-    tune.add_argument("--cutoff-hz", type=_finite_positive, default=20.0,
-                      help="bandlimit guess of the data-only criteria, inside (0, Nyquist) "
-                      "(default 20)")  # fmt: skip
+    tune.add_argument(
+        "--cutoff-hz",
+        type=_finite_positive,
+        default=20.0,
+        help="bandlimit guess of the data-only criteria, inside (0, Nyquist) (default 20)",
+    )
     tune.add_argument(
         "--tuning-seed",
         type=_seed,
@@ -171,9 +184,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     tune.set_defaults(handler=_cmd_tune)
 
-    grid = commands.add_parser("grid", parents=[out, work],
-                               help="tune every method on the noise x level x step grid, "
-                               "score it, name the winners")  # fmt: skip
+    grid = commands.add_parser(
+        "grid",
+        parents=[out, work],
+        help="tune every method on the noise x level x step grid, score it, name the winners",
+    )
     grid.add_argument("--seeds", type=_positive_int, default=10, help="scored seeds 0..N-1")
     grid.add_argument(
         "--orders", type=_orders, default=[1, 2], help="derivatives tuned for (default 1,2)"
@@ -209,8 +224,10 @@ def _cmd_list(args) -> None:
             if spec.tune_low is not None:
                 scale = ", log" if spec.log else ""
                 tune = f" [tune {spec.tune_low:g}..{spec.tune_high:g}{scale}]"
-            print(f"      {spec.name}: {spec.describe_range()}{tune} default {spec.default!r}"
-                  f"  - {spec.doc}")  # fmt: skip
+            print(
+                f"      {spec.name}: {spec.describe_range()}{tune} default {spec.default!r}"
+                f"  - {spec.doc}"
+            )
         for key, chosen in cls.presets.items():
             values = ", ".join(f"{k}={v!r}" for k, v in chosen.values.items())
             print(f"      preset {key} ({chosen.label}): {values}  ({chosen.source})")
@@ -238,9 +255,11 @@ def _method_names(names) -> list[str] | None:
 def _open_store(out: Path) -> Store:
     store = Store(out / "store")
     for item in store.set_aside:
-        print(f"diffbench: warning: set aside {item} (kept in "
-              f"{item.path.with_name(item.path.stem + '.quarantine.jsonl')})",
-              file=sys.stderr)  # fmt: skip
+        print(
+            f"diffbench: warning: set aside {item} (kept in "
+            f"{item.path.with_name(item.path.stem + '.quarantine.jsonl')})",
+            file=sys.stderr,
+        )
     return store
 
 
@@ -261,8 +280,11 @@ def _run_cells(cells, store: Store, args) -> runner.RunSummary:
         return runner.run(cells, store, progress=_progress(args), jobs=args.jobs)
     except (KeyboardInterrupt, Terminated) as stop:
         store.refresh()
-        print(f"diffbench: interrupted; {len(store.cells.records)} cells are stored in "
-              f"{store.directory}; run the same command to resume", file=sys.stderr)  # fmt: skip
+        print(
+            f"diffbench: interrupted; {len(store.cells.records)} cells are stored in "
+            f"{store.directory}; run the same command to resume",
+            file=sys.stderr,
+        )
         code = EXIT_INTERRUPTED if isinstance(stop, KeyboardInterrupt) else EXIT_TERMINATED
         raise SystemExit(code) from None
 
@@ -278,15 +300,19 @@ def _report(task, store: Store, out: Path) -> list[Path]:
     store.refresh()
     cells = store.cells_frame(task.name)
     if cells.empty:
-        raise UsageError(f"no stored results of {task.name} in {store.directory}; run "
-                         f"`diffbench run {task.name} --out {out}` first")  # fmt: skip
+        raise UsageError(
+            f"no stored results of {task.name} in {store.directory}; run "
+            f"`diffbench run {task.name} --out {out}` first"
+        )
     written = task.report(cells, store.tunings_frame(), out / task.name)
     current = provenance()["git_rev"]
     others = sorted(r[:12] for r in set(cells["git_rev"]) - {current})
     if others:
-        print(f"diffbench: note: some stored cells of {task.name} were computed by other code "
-              f"revisions ({', '.join(others)}); delete {store.directory} to recompute",
-              file=sys.stderr)  # fmt: skip
+        print(
+            f"diffbench: note: some stored cells of {task.name} were computed by other code "
+            f"revisions ({', '.join(others)}); delete {store.directory} to recompute",
+            file=sys.stderr,
+        )
     return written
 
 
@@ -306,8 +332,10 @@ def _cmd_run(args) -> None:
 def _cmd_report(args) -> None:
     task = _task(args.task)
     if not (args.out / "store" / "cells.jsonl").exists():
-        raise UsageError(f"no results store in {args.out / 'store'}; run "
-                         f"`diffbench run {task.name} --out {args.out}` first")  # fmt: skip
+        raise UsageError(
+            f"no results store in {args.out / 'store'}; run "
+            f"`diffbench run {task.name} --out {args.out}` first"
+        )
     for path in _report(task, _open_store(args.out), args.out):
         print(path)
 
@@ -316,8 +344,10 @@ def _check_cutoff(cutoff_hz: float, task) -> None:
     realisation = task.tuning_data(0)
     nyquist = 0.5 / realisation.dt_s
     if not 0 < cutoff_hz < nyquist:
-        raise UsageError(f"--cutoff-hz must lie strictly inside (0, {nyquist:g}) Hz, the "
-                         f"Nyquist frequency of {task.name}; got {cutoff_hz:g}")  # fmt: skip
+        raise UsageError(
+            f"--cutoff-hz must lie strictly inside (0, {nyquist:g}) Hz, the "
+            f"Nyquist frequency of {task.name}; got {cutoff_hz:g}"
+        )
 
 
 def _cmd_tune(args) -> None:
@@ -326,10 +356,11 @@ def _cmd_tune(args) -> None:
         seeds = task.seeds(args.seeds)
         task.tuning_data(args.tuning_seed)
     if args.tuning_seed in seeds:
-        raise UsageError(f"--tuning-seed {args.tuning_seed} is among the scored seeds "
-                         f"0..{seeds[-1]}; choose one >= {len(seeds)}")  # fmt: skip
-    names = methods.available() if args.method == "all" else _method_names(
-        _name_list(args.method))  # fmt: skip
+        raise UsageError(
+            f"--tuning-seed {args.tuning_seed} is among the scored seeds "
+            f"0..{seeds[-1]}; choose one >= {len(seeds)}"
+        )
+    names = methods.available() if args.method == "all" else _method_names(_name_list(args.method))
     data_only = [c for c in args.criteria if c != "oracle"]
     if data_only:
         _check_cutoff(args.cutoff_hz, task)
@@ -340,14 +371,18 @@ def _cmd_tune(args) -> None:
                 print(f"{name}: not linear, skipped for the no-truth criterion", file=sys.stderr)
                 continue
             cutoff = args.cutoff_hz if criterion != "oracle" else None
-            jobs_list += [runner.TuningJob(task.name, name, criterion, order, args.tuning_seed,
-                                           cutoff) for order in args.orders]  # fmt: skip
+            jobs_list += [
+                runner.TuningJob(task.name, name, criterion, order, args.tuning_seed, cutoff)
+                for order in args.orders
+            ]
     store = _open_store(args.out)
-    found, tuned = _tune(jobs_list, store, args)
+    found, _ = _tune(jobs_list, store, args)
     for job, record in found.items():
         chosen = ", ".join(f"{k}={v!r}" for k, v in record["params"].items())
-        print(f"{job.method} ({job.role.label}): {chosen or 'no setting covers the task'} "
-              f"(loss {record['loss']:.4g}, {record['evaluations']} evaluations)")  # fmt: skip
+        print(
+            f"{job.method} ({job.role.label}): {chosen or 'no setting covers the task'} "
+            f"(loss {record['loss']:.4g}, {record['evaluations']} evaluations)"
+        )
     entries = runner.tuned_entries(found)
     cells = [cell for entry in entries for cell in entry.cells(task.name, seeds)]
     _say(_run_cells(cells, store, args))
@@ -357,11 +392,14 @@ def _cmd_tune(args) -> None:
 
 def _tune(jobs_list, store: Store, args):
     try:
-        found, summary = runner.tune_all(jobs_list, store, jobs=args.jobs,
-                                         progress=_progress(args, "tuning"))  # fmt: skip
+        found, summary = runner.tune_all(
+            jobs_list, store, jobs=args.jobs, progress=_progress(args, "tuning")
+        )
     except (KeyboardInterrupt, Terminated) as stop:
-        print("diffbench: interrupted; finished tunings are stored; run the same command to "
-              "resume", file=sys.stderr)  # fmt: skip
+        print(
+            "diffbench: interrupted; finished tunings are stored; run the same command to resume",
+            file=sys.stderr,
+        )
         code = EXIT_INTERRUPTED if isinstance(stop, KeyboardInterrupt) else EXIT_TERMINATED
         raise SystemExit(code) from None
     print(f"{summary.computed} tunings computed, {summary.reused} reused from the store")

@@ -6,8 +6,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from diffbench.methods import Method
 from scipy import optimize
+
+from diffbench.methods import Method
 
 
 def ideal_response(frequency_hz, order: int) -> np.ndarray:

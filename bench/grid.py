@@ -13,6 +13,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import pandas as pd
+
 from diffbench import methods, signals
 from diffbench.bench import tables
 from diffbench.bench.roles import ORDER_SYMBOLS
@@ -37,15 +38,21 @@ def task_names() -> list[str]:
 
 def tuning_jobs(orders: Sequence[int] = (1, 2)) -> list[TuningJob]:
     """Every registered method, for each order, on each grid task (oracle, seed 10000)."""
-    return [TuningJob(task, name, "oracle", int(order), TUNING_SEED, None, BUDGET)
-            for task in task_names() for name in methods.available()
-            for order in orders]  # fmt: skip
+    return [
+        TuningJob(task, name, "oracle", int(order), TUNING_SEED, None, BUDGET)
+        for task in task_names()
+        for name in methods.available()
+        for order in orders
+    ]
 
 
 def cells(found: Mapping[TuningJob, dict], seeds) -> list[Cell]:
     """The cells scoring each tuned setting on ``seeds``."""
-    return [cell for entry, job in zip(tuned_entries(found), _tuned_jobs(found), strict=True)
-            for cell in entry.cells(job.task, seeds)]  # fmt: skip
+    return [
+        cell
+        for entry, job in zip(tuned_entries(found), _tuned_jobs(found), strict=True)
+        for cell in entry.cells(job.task, seeds)
+    ]
 
 
 def _tuned_jobs(found: Mapping[TuningJob, dict]) -> list[TuningJob]:
@@ -65,24 +72,38 @@ def winners(rows: pd.DataFrame, order: int = 2) -> pd.DataFrame:
                 vanishing = vanishing_disturbances(signals.get_scenario(name))
                 noiseless = len(vanishing) == len(signals.get_scenario(name).noise.models)
                 tuned_for = (rows["tuned_order"] == order).fillna(False).astype(bool)
-                mine = rows[(rows["task"] == name) & tuned_for
-                            & (rows["metric"] == "rmse") & (rows["order"] == order)
-                            & (rows["region"] == "interior")]  # fmt: skip
-                record = {"noise": kind, "level": level, "step_ms": step * 1e3,
-                          "vanishing": "; ".join(vanishing), "noiseless": noiseless}  # fmt: skip
+                mine = rows[
+                    (rows["task"] == name)
+                    & tuned_for
+                    & (rows["metric"] == "rmse")
+                    & (rows["order"] == order)
+                    & (rows["region"] == "interior")
+                ]
+                record = {
+                    "noise": kind,
+                    "level": level,
+                    "step_ms": step * 1e3,
+                    "vanishing": "; ".join(vanishing),
+                    "noiseless": noiseless,
+                }
                 if not mine.empty:
                     table = ranking(mine, "rmse", order, "interior", keys=("method", "params"))
                     best = table.iloc[0]
                     second = table.iloc[1] if len(table) > 1 else None
-                    record.update({
-                        "winner": best["method"], "rmse": best["mean"], "ci95": best["ci95"],
-                        "runner_up": None if second is None else second["method"],
-                        "runner_up_rmse": None if second is None else second["mean"],
-                        "t_p": best["vs_next_t_p"],
-                        "detectable_difference_80": best["detectable_difference_80"],
-                        "significant": None if second is None else bool(
-                            best["significant_vs_next"]),
-                    })  # fmt: skip
+                    record.update(
+                        {
+                            "winner": best["method"],
+                            "rmse": best["mean"],
+                            "ci95": best["ci95"],
+                            "runner_up": None if second is None else second["method"],
+                            "runner_up_rmse": None if second is None else second["mean"],
+                            "t_p": best["vs_next_t_p"],
+                            "detectable_difference_80": best["detectable_difference_80"],
+                            "significant": None
+                            if second is None
+                            else bool(best["significant_vs_next"]),
+                        }
+                    )
                 records.append(record)
     return pd.DataFrame(records)
 
@@ -108,11 +129,15 @@ def write_winners(rows: pd.DataFrame, directory: Path) -> list[Path]:
                 else:
                     star = "*" if row["significant"] else ""
                     note = " †" if row["vanishing"] else ""
-                    line[column] = (f"{row['winner']}{star} ({row['rmse']:.3g}; next "
-                                    f"{row['runner_up']} {row['runner_up_rmse']:.3g}){note}")  # fmt: skip
+                    line[column] = (
+                        f"{row['winner']}{star} ({row['rmse']:.3g}; next "
+                        f"{row['runner_up']} {row['runner_up_rmse']:.3g}){note}"
+                    )
             shown.append(line)
-        title = (f"Winner per grid task for {ORDER_SYMBOLS[order]} (interior RMSE; each method "
-                 f"tuned by the oracle on seed {TUNING_SEED}, scored on the others)")  # fmt: skip
+        title = (
+            f"Winner per grid task for {ORDER_SYMBOLS[order]} (interior RMSE; each method "
+            f"tuned by the oracle on seed {TUNING_SEED}, scored on the others)"
+        )
         legend = (
             "`*`: better than the runner-up by the paired t-test (p < 0.05; the CSV gives p and "
             "the smallest difference the test detects 80 % of the time). `†`: the 200 Hz "
@@ -120,6 +145,5 @@ def write_winners(rows: pd.DataFrame, directory: Path) -> list[Path]:
             "only the other components remain. The signal: sin 2π4t + sin 2π9t + sin 2π15t "
             "over 0.93 s (not a whole number of periods)."
         )
-        written += tables.write_report(directory, stem, table, pd.DataFrame(shown), title,
-                                       legend)  # fmt: skip
+        written += tables.write_report(directory, stem, table, pd.DataFrame(shown), title, legend)
     return written

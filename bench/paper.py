@@ -1,21 +1,26 @@
-"""The paper's figures 1-3 and table I, computed (pure functions returning tidy frames) and
-written (CSV first, then the PNG drawn from what the CSV holds).
+"""The paper's figures 1, 2, 3 and 5 and the frequency table, computed (pure functions
+returning tidy frames) and written (CSV first, then the PNG drawn from what the CSV holds).
 
-Guo, Gautier, Liu, Perruquetti, IEEE/ASME AIM 2015, section III.C:
-fig. 1 — velocity and acceleration errors over time, Jacobi vs Butterworth + Euler;
-fig. 2 — Bode magnitude of the second-order differentiators against the ideal s²;
-fig. 3 — influence of κ = μ, q and T on the Bode magnitude (Ts = 1 ms);
-table I — influence of the design parameters on the noise and truncation errors, here
-measured (bias and noise RMS) instead of drawn as arrows.
+Guo, Gautier, Liu, Perruquetti, IEEE/ASME AIM 2015, sections III.C and IV; where the paper
+compares Jacobi with Butterworth + Euler, these compare every registered method:
+fig. 1 — errors of ẋ and ẍ over time on the paper signal, one row of panels per method;
+fig. 2 — Bode magnitude of the second-order linear differentiators against the ideal s²;
+fig. 3 — influence of κ = μ, q and T on the Jacobi Bode magnitude (Ts = 1 ms);
+fig. 5 — errors of q̇1 and q̈1 on the simulated robot, one row of panels per method.
+A method whose error dwarfs the others' is drawn on its own y range and flagged
+(:func:`diffbench.bench.figures.error_scales`).
 """
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
 from diffbench import methods, signals
+from diffbench.bench import figures
 from diffbench.bench.frequency import cutoff_hz, ideal_response, noise_gain
 
 DT = 1e-3
@@ -38,11 +43,24 @@ def _db(values) -> np.ndarray:
 
 
 def figure1_data(seed: int = 0) -> pd.DataFrame:
-    """Errors of ẋ and ẍ over time on one noise seed of the paper scenario (NaN where a
-    method has no estimate)."""
+    """Errors of ẋ and ẍ over time of every registered method at its paper-signal preset, on
+    one noise seed of the paper scenario.
+
+    Columns: ``t_s``, ``x_noisy``, ``x_true``, ``velocity_true``, ``acceleration_true``,
+    ``interior`` (the samples every method is scored on) and, per method,
+    ``<method>_velocity_error`` and ``<method>_acceleration_error`` = estimate - truth (NaN
+    where the method has no estimate).
+    """
     realisation = signals.get_scenario(SCENARIO).realise(seed)
-    frame = {"t_s": realisation.t, "x_noisy": realisation.x, "x_true": realisation.truth[0]}
-    for name in ("jacobi", "butterworth"):
+    frame = {
+        "t_s": realisation.t,
+        "x_noisy": realisation.x,
+        "x_true": realisation.truth[0],
+        "velocity_true": realisation.truth[1],
+        "acceleration_true": realisation.truth[2],
+        "interior": realisation.interior,
+    }
+    for name in methods.available():
         method = methods.preset(name, "paper-signal")
         estimate = method(realisation.x, realisation.dt_s)
         for order, label in ((1, "velocity"), (2, "acceleration")):
@@ -51,11 +69,13 @@ def figure1_data(seed: int = 0) -> pd.DataFrame:
 
 
 def figure2_data() -> pd.DataFrame:
-    """|H(f)| in dB of the paper's second-order differentiators and of the ideal s²."""
+    """|H(f)| in dB of the second-order estimate of every linear registered method at its
+    paper-signal preset (``<method>_db``) and of the ideal s² (``ideal_db``)."""
     frame = {"frequency_hz": FREQUENCIES_HZ, "ideal_db": _db(ideal_response(FREQUENCIES_HZ, 2))}
-    for name in ("jacobi", "butterworth"):
+    for name in methods.available():
         method = methods.preset(name, "paper-signal")
-        frame[f"{name}_db"] = _db(method.frequency_response(FREQUENCIES_HZ, DT, 2))
+        if method.linear:
+            frame[f"{name}_db"] = _db(method.frequency_response(FREQUENCIES_HZ, DT, 2))
     return pd.DataFrame(frame)
 
 
@@ -96,80 +116,175 @@ def frequency_table(dt: float = DT, probe_hz: float = 15.0) -> pd.DataFrame:
 
 
 # --- writing: CSV first, the figure from the CSV ------------------------------------------
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+_NOTE_BOX = {"facecolor": "white", "alpha": 0.85, "lw": 0, "pad": 1}
 
 
-def _save(fig, path: Path) -> Path:
-    """Lay out, write the PNG and free the figure."""
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    _pyplot().close(fig)
-    return path
+def _tick(value, _position) -> str:
+    """A y tick: 10000 stays 10000 and 1e+06 is written out, never an offset above the axis."""
+    return f"{value:.5g}".replace("-", "−")
+
+
+def _ticks():
+    from matplotlib.ticker import FuncFormatter
+
+    return FuncFormatter(_tick)
+
+
+def _methods_in(columns, suffix: str) -> list[str]:
+    """Method names of the columns ``<method><suffix>``, in column order."""
+    return [column[: -len(suffix)] for column in columns if column.endswith(suffix)]
+
+
+def _shade_outside(axis, t: np.ndarray, interior: np.ndarray) -> None:
+    """Grey the samples outside the scored interior."""
+    inside = t[interior]
+    if inside.size:
+        axis.axvspan(t[0], inside[0], color="0.9", zorder=0, lw=0)
+        axis.axvspan(inside[-1], t[-1], color="0.9", zorder=0, lw=0)
+
+
+def _error_rows(fig, grid, first_row: int, data: pd.DataFrame, names, panels, share) -> None:
+    """One row per method of ``names``, one column per ``(column template, symbol, unit)`` of
+    ``panels`` (the template's ``{}`` is the method): the error curve in the method's colour,
+    its interior RMSE, a y range shared within the column unless the method is off that scale
+    (then its own range, a red frame and a note)."""
+    t = data["t_s"].to_numpy()
+    interior = data["interior"].to_numpy(dtype=bool)
+    styles = figures.method_styles(names)
+    for column, (template, symbol, unit) in enumerate(panels):
+        errors = {name: data[template.format(name)].to_numpy() for name in names}
+        with np.errstate(invalid="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN interior: NaN, drawn empty
+            rmse = {n: float(np.sqrt(np.nanmean(e[interior] ** 2))) for n, e in errors.items()}
+            peak = {n: float(np.nanmax(np.abs(e[interior]))) for n, e in errors.items()}
+        scales = figures.error_scales(rmse, peak)
+        for row, name in enumerate(names):
+            axis = fig.add_subplot(grid[first_row + row, column], sharex=share)
+            _shade_outside(axis, t, interior)
+            axis.axhline(0.0, color="0.5", lw=0.6)
+            axis.plot(t, errors[name], lw=0.8, color=styles[name].color)
+            limit = scales.own.get(name, scales.shared)
+            axis.set_ylim(-limit, limit)
+            axis.yaxis.set_major_formatter(_ticks())
+            axis.set_ylabel(f"{symbol} error\n({unit})", fontsize=8)
+            axis.tick_params(labelsize=7)
+            axis.grid(alpha=0.3)
+            axis.text(0.01, 0.95, f"{name}: interior RMSE {rmse[name]:.3g} {unit}",
+                      transform=axis.transAxes, va="top", fontsize=8, color=styles[name].color,
+                      fontweight="bold", bbox=_NOTE_BOX)  # fmt: skip
+            if name in scales.own:
+                axis.text(0.99, 0.05, f"off-scale: own y range ({scales.ratio[name]:.0f}x the "
+                          "median RMSE)", transform=axis.transAxes, va="bottom", ha="right",
+                          fontsize=7.5, color="firebrick", bbox=_NOTE_BOX)  # fmt: skip
+                for spine in axis.spines.values():
+                    spine.set_edgecolor("firebrick")
+                    spine.set_linewidth(1.4)
+            if row < len(names) - 1:
+                axis.tick_params(labelbottom=False)
+            else:
+                axis.set_xlabel("time (s)")
+
+
+def _error_figure(n_methods: int, header_rows: int):
+    """A figure with ``header_rows`` rows of context above ``n_methods`` error rows, two
+    columns."""
+    plt = figures.pyplot()
+    heights = [1.5] * header_rows + [1.0] * n_methods
+    fig = plt.figure(figsize=(11, 1.0 + 1.05 * sum(heights)), layout="constrained")
+    grid = fig.add_gridspec(header_rows + n_methods, 2, height_ratios=heights)
+    return fig, grid
 
 
 def write_figure1(directory: Path, seed: int = 0) -> list[Path]:
+    """``fig1_errors.csv`` (:func:`figure1_data`) and ``fig1_errors.png`` drawn from it: the
+    signal, the true derivatives, then each method's errors of ẋ and ẍ in its own row."""
     csv = directory / "fig1_errors.csv"
     figure1_data(seed).to_csv(csv, index=False)
     data = pd.read_csv(csv)
-    plt = _pyplot()
-    fig, axes = plt.subplots(3, 1, figsize=(7, 8), sharex=True)
-    axes[0].plot(data["t_s"], data["x_noisy"], lw=0.6, label="noisy")
-    axes[0].plot(data["t_s"], data["x_true"], lw=1.2, label="real")
-    axes[0].set_ylabel("position")
-    for axis, label in ((axes[1], "velocity"), (axes[2], "acceleration")):
-        axis.plot(data["t_s"], data[f"jacobi_{label}_error"], lw=0.8, label="central Jacobi")
-        axis.plot(data["t_s"], data[f"butterworth_{label}_error"], lw=0.8, label="BW + difference")
-        axis.set_ylabel(f"error {label}")
-        # Scale to the errors away from the ends (the filter start-up transients are larger).
-        middle = (data["t_s"] > 0.15) & (data["t_s"] < data["t_s"].iloc[-1] - 0.15)
-        columns = [f"{name}_{label}_error" for name in ("jacobi", "butterworth")]
-        limit = 1.5 * float(np.nanmax(np.abs(data.loc[middle, columns].to_numpy())))
-        axis.set_ylim(-limit, limit)
-    for axis in axes:
-        axis.legend(loc="upper right", fontsize=8)
+    names = _methods_in(data.columns, "_velocity_error")
+    fig, grid = _error_figure(len(names), header_rows=2)
+    t, interior = data["t_s"].to_numpy(), data["interior"].to_numpy(dtype=bool)
+    top = fig.add_subplot(grid[0, :])
+    _shade_outside(top, t, interior)
+    top.plot(t, data["x_noisy"], color="0.55", lw=0.5, label="measured (noisy)")
+    top.plot(t, data["x_true"], color="black", lw=1.2, label="true")
+    top.set_ylabel("x (units)")
+    top.set_xlabel("time (s)", fontsize=8)
+    top.tick_params(labelsize=7)
+    top.legend(loc="upper right", fontsize=8, ncol=2)
+    for column, (name, symbol, unit) in enumerate(
+        (("velocity_true", "ẋ", "units/s"), ("acceleration_true", "ẍ", "units/s²"))
+    ):
+        axis = fig.add_subplot(grid[1, column], sharex=top)
+        _shade_outside(axis, t, interior)
+        axis.plot(t, data[name], color="black", lw=1.0)
+        axis.set_ylabel(f"true {symbol} ({unit})", fontsize=8)
+        axis.tick_params(labelsize=7, labelbottom=False)
+    panels = (("{}_velocity_error", "ẋ", "units/s"), ("{}_acceleration_error", "ẍ", "units/s²"))
+    _error_rows(fig, grid, 2, data, names, panels, share=top)
+    for axis in fig.axes:
         axis.grid(alpha=0.3)
-    axes[2].set_xlabel("time (s)")
-    fig.suptitle(f"Fig. 1: derivative errors, paper signal and noise (seed {seed})")
-    return [csv, _save(fig, directory / "fig1_errors.png")]
+    margin = float(t[interior][0] - t[0]) if interior.any() else float("nan")
+    fig.suptitle(
+        f"Fig. 1: errors (estimate − truth) of every method at its paper-signal preset, paper "
+        f"signal, noise seed {seed}\ngrey: the first and last {margin:g} s, not scored; each "
+        "column shares one y range except the red-framed, off-scale panels",
+        fontsize=10,
+    )
+    return [csv, figures.save_figure(fig, directory / "fig1_errors.png", tight=False)]
 
 
 def write_figure2(directory: Path) -> list[Path]:
+    """``fig2_bode.csv`` (:func:`figure2_data`) and ``fig2_bode.png``: |H| of every linear
+    method against the ideal s² (the paper's view), and |H| relative to the ideal."""
     csv = directory / "fig2_bode.csv"
     figure2_data().to_csv(csv, index=False)
     data = pd.read_csv(csv)
-    plt = _pyplot()
-    fig, axis = plt.subplots(figsize=(7, 4.5))
-    axis.semilogx(data["frequency_hz"], data["jacobi_db"], label="central Jacobi")
-    axis.semilogx(data["frequency_hz"], data["butterworth_db"], label="BW + difference")
-    axis.semilogx(data["frequency_hz"], data["ideal_db"], "r--", label="ideal s²")
-    at15 = {name: float(np.interp(np.log(15.0), np.log(data["frequency_hz"]), data[f"{name}_db"]))
-            for name in ("jacobi", "butterworth", "ideal")}  # fmt: skip
-    method = methods.preset("jacobi", "paper-signal")
-    exact15 = float(_db(method.frequency_response([15.0], DT, 2))[0])
-    axis.plot([15.0], [exact15], "ko")
-    axis.annotate(f"central Jacobi at 15 Hz: {exact15:.2f} dB\n(ideal {at15['ideal']:.2f} dB; "
-                  "paper: 78.5 dB)", (15.0, exact15), (0.3, 150), fontsize=8,
-                  arrowprops={"arrowstyle": "->"})  # fmt: skip
-    axis.set_ylim(-250, 200)
-    axis.set_xlabel("frequency (Hz)")
-    axis.set_ylabel("magnitude (dB)")
-    axis.set_title("Fig. 2: Bode magnitude of second-order differentiators (Ts = 1 ms)")
-    axis.legend(fontsize=8)
-    axis.grid(alpha=0.3, which="both")
-    return [csv, _save(fig, directory / "fig2_bode.png")]
+    names = [name for name in _methods_in(data.columns, "_db") if name != "ideal"]
+    styles = figures.method_styles(names)
+    frequency = data["frequency_hz"]
+    plt = figures.pyplot()
+    fig, (absolute, relative) = plt.subplots(2, 1, figsize=(8, 9), height_ratios=[1.3, 1])
+    absolute.semilogx(frequency, data["ideal_db"], color="black", lw=2.2, alpha=0.35,
+                      label="ideal s²")  # fmt: skip
+    relative.axhline(0.0, color="black", lw=2.2, alpha=0.35)
+    relative.axhline(-3.0, color="0.4", lw=0.8, ls=":", label="-3 dB")
+    for name in names:
+        style = styles[name].line()
+        absolute.semilogx(frequency, data[f"{name}_db"], lw=1.3, label=name, **style)
+        relative.semilogx(frequency, data[f"{name}_db"] - data["ideal_db"], lw=1.3, **style)
+    if "jacobi_db" in data:
+        exact15 = float(_db(methods.preset("jacobi", "paper-signal").frequency_response(
+            [15.0], DT, 2))[0])  # fmt: skip
+        ideal15 = float(_db(ideal_response(15.0, 2)))
+        absolute.plot([15.0], [exact15], "ko", ms=5)
+        absolute.annotate(f"jacobi at 15 Hz: {exact15:.2f} dB\n(ideal {ideal15:.2f} dB; paper: "
+                          "78.5 dB)", (15.0, exact15), (0.3, 150), fontsize=8,
+                          arrowprops={"arrowstyle": "->"})  # fmt: skip
+    absolute.set_ylim(-250, 200)
+    absolute.set_ylabel("|H(f)| (dB re 1 s⁻²)")
+    absolute.set_xlabel("frequency (Hz)")
+    absolute.set_title("|H| of the second-order estimate, each method at its paper-signal "
+                       "preset", fontsize=9)  # fmt: skip
+    absolute.legend(fontsize=8, loc="lower left", ncol=2)
+    relative.set_ylim(-60, 20)
+    relative.set_xlim(2.0, 600.0)
+    relative.set_ylabel("|H(f)| / |(i2πf)²| (dB)")
+    relative.set_xlabel("frequency (Hz)")
+    relative.set_title("relative to the ideal (same curves, 2-500 Hz): 0 dB passes, below -3 dB "
+                       "cuts off", fontsize=9)  # fmt: skip
+    relative.legend(fontsize=8, loc="lower left")
+    for axis in (absolute, relative):
+        axis.grid(alpha=0.3, which="both")
+    fig.suptitle("Fig. 2: Bode magnitude of the second-order differentiators (Ts = 1 ms)")
+    return [csv, figures.save_figure(fig, directory / "fig2_bode.png")]
 
 
 def write_figure3(directory: Path) -> list[Path]:
     csv = directory / "fig3_parameters.csv"
     figure3_data().to_csv(csv, index=False)
     data = pd.read_csv(csv)
-    plt = _pyplot()
+    plt = figures.pyplot()
     fig, axes = plt.subplots(3, 1, figsize=(7, 9), sharex=True)
     titles = {"kappa=mu": "influence of κ = μ", "q": "influence of q", "T": "influence of T (s)"}
     for axis, (parameter, title) in zip(axes, titles.items(), strict=True):
@@ -185,7 +300,7 @@ def write_figure3(directory: Path) -> list[Path]:
         axis.grid(alpha=0.3, which="both")
     axes[-1].set_xlabel("frequency (Hz)")
     fig.suptitle("Fig. 3: Jacobi n = 2, parameters around κ = μ = 12, q = 6, T = 0.2 s")
-    return [csv, _save(fig, directory / "fig3_parameters.png")]
+    return [csv, figures.save_figure(fig, directory / "fig3_parameters.png")]
 
 
 def write_frequency_table(directory: Path) -> list[Path]:
@@ -211,42 +326,72 @@ def write_frequency_table(directory: Path) -> list[Path]:
 
 
 def figure5_data(scenario_name: str = "robot-sim", seed: int = 0) -> pd.DataFrame:
-    """Position, velocity and acceleration of joint 1: the truth and the estimates of the
-    Jacobi and Butterworth robot presets (the paper's fig. 5, here against the exact truth)."""
+    """Joint 1 of a simulated robot scenario: measured and true position, the true velocity
+    and acceleration, and the errors (estimate - truth) of every registered method that has a
+    ``robot`` preset (the paper's fig. 5, here against the exact truth).
+
+    Columns: ``t_s``, ``q1_measured``, ``q1_true``, ``qd1_true``, ``qdd1_true``, ``interior``
+    (the samples the identification uses) and, per method, ``qd1_<method>_error`` and
+    ``qdd1_<method>_error`` (NaN where the method has no estimate).
+    """
     from diffbench.signals import robot2r
 
     scenario = robot2r.get_robot_scenario(scenario_name)
     realisation = scenario.realise(seed)
+    truth = realisation.truth
     frame = {
         "t_s": realisation.t,
         "q1_measured": realisation.q[:, 0],
-        "qd1_true": realisation.truth.qd[:, 0],
-        "qdd1_true": realisation.truth.qdd[:, 0],
+        "q1_true": truth.q[:, 0],
+        "qd1_true": truth.qd[:, 0],
+        "qdd1_true": truth.qdd[:, 0],
+        "interior": realisation.interior,
     }
-    for name in ("jacobi", "butterworth"):
-        method = methods.preset(name, "robot")
-        estimate = method(realisation.q, realisation.dt_s)
-        frame[f"qd1_{name}"] = estimate[1][:, 0]
-        frame[f"qdd1_{name}"] = estimate[2][:, 0]
+    for name in methods.available():
+        if "robot" not in methods.method_class(name).presets:
+            continue
+        estimate = methods.preset(name, "robot")(realisation.q, realisation.dt_s)
+        frame[f"qd1_{name}_error"] = estimate[1][:, 0] - truth.qd[:, 0]
+        frame[f"qdd1_{name}_error"] = estimate[2][:, 0] - truth.qdd[:, 0]
     return pd.DataFrame(frame)
 
 
-def write_figure5(directory: Path, scenario_name: str = "robot-sim") -> list[Path]:
+def write_figure5(directory: Path, scenario_name: str = "robot-sim", seed: int = 0) -> list[Path]:
+    """``fig5_robot_derivatives.csv`` (:func:`figure5_data`) and the PNG drawn from it: joint
+    1's position, true velocity and acceleration, then each method's errors in its own row."""
     csv = directory / "fig5_robot_derivatives.csv"
-    figure5_data(scenario_name).to_csv(csv, index=False)
+    figure5_data(scenario_name, seed).to_csv(csv, index=False)
     data = pd.read_csv(csv)
-    plt = _pyplot()
-    fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
-    axes[0].plot(data["t_s"], data["q1_measured"], lw=0.8)
-    axes[0].set_ylabel("q1 (rad)")
-    for axis, prefix, unit in ((axes[1], "qd1", "rad/s"), (axes[2], "qdd1", "rad/s²")):
-        axis.plot(data["t_s"], data[f"{prefix}_true"], "k", lw=1.6, label="true")
-        axis.plot(data["t_s"], data[f"{prefix}_jacobi"], lw=0.9, label="central Jacobi")
-        axis.plot(data["t_s"], data[f"{prefix}_butterworth"], lw=0.9, label="Butterworth")
-        axis.set_ylabel(f"{'velocity' if prefix == 'qd1' else 'acceleration'} ({unit})")
-        axis.legend(fontsize=8, loc="upper right")
-    for axis in axes:
+    names = [name[len("qd1_"):] for name in _methods_in(data.columns, "_error")
+             if name.startswith("qd1_")]  # fmt: skip
+    fig, grid = _error_figure(len(names), header_rows=2)
+    t, interior = data["t_s"].to_numpy(), data["interior"].to_numpy(dtype=bool)
+    top = fig.add_subplot(grid[0, :])
+    _shade_outside(top, t, interior)
+    quantisation = float(np.max(np.abs(data["q1_measured"] - data["q1_true"])))
+    top.plot(t, data["q1_true"], color="black", lw=1.2,
+             label=f"true (the measured q1 is within {quantisation:.1e} rad of it)")  # fmt: skip
+    top.legend(loc="upper left", fontsize=8)
+    top.set_ylabel("q1 (rad)")
+    top.set_xlabel("time (s)", fontsize=8)
+    top.tick_params(labelsize=7)
+    for column, (name, symbol, unit) in enumerate(
+        (("qd1_true", "q̇1", "rad/s"), ("qdd1_true", "q̈1", "rad/s²"))
+    ):
+        axis = fig.add_subplot(grid[1, column], sharex=top)
+        _shade_outside(axis, t, interior)
+        axis.plot(t, data[name], color="black", lw=1.0)
+        axis.set_ylabel(f"true {symbol} ({unit})", fontsize=8)
+        axis.tick_params(labelsize=7, labelbottom=False)
+    panels = (("qd1_{}_error", "q̇1", "rad/s"), ("qdd1_{}_error", "q̈1", "rad/s²"))
+    _error_rows(fig, grid, 2, data, names, panels, share=top)
+    for axis in fig.axes:
         axis.grid(alpha=0.3)
-    axes[-1].set_xlabel("time (s)")
-    fig.suptitle(f"Fig. 5: joint 1 of `{scenario_name}` (robot presets, noise seed 0)")
-    return [csv, _save(fig, directory / "fig5_robot_derivatives.png")]
+    margin = float(t[interior][0] - t[0]) if interior.any() else float("nan")
+    fig.suptitle(
+        f"Fig. 5: joint 1 of `{scenario_name}`, errors (estimate − truth) of every method at its "
+        f"robot preset, noise seed {seed}\ngrey: the first and last {margin:g} s, not used; each "
+        "column shares one y range except the red-framed, off-scale panels",
+        fontsize=10,
+    )
+    return [csv, figures.save_figure(fig, directory / "fig5_robot_derivatives.png", tight=False)]

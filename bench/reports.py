@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
 from diffbench.bench import tables
 from diffbench.bench.roles import CRITERION_NAMES, ORDER_SYMBOLS
 from diffbench.bench.stats import ranking
@@ -23,36 +24,42 @@ def _seeds_phrase(rows: pd.DataFrame) -> str:
     return f"{low} noise seeds" if low == high else f"{low}–{high} noise seeds"
 
 
-def signal_report(task: str, description: str, cells: pd.DataFrame, tunings: pd.DataFrame,
-                  directory: Path) -> list[Path]:  # fmt: skip
+def signal_report(
+    task: str, description: str, cells: pd.DataFrame, tunings: pd.DataFrame, directory: Path
+) -> list[Path]:
     """``rmse``, ``ranking``, ``decomposition`` (linear methods), ``tuning`` (if tuned) tables
     and the error figure of a signal task."""
-    try:  # TEMPORARY while bench/figures.py is written
-        from diffbench.bench.figures import write_error_figure
-    except ImportError:
-        write_error_figure = None
+    from diffbench.bench.figures import write_error_figure
 
     wide = tables.wide_table(cells, tables.RMSE_COLUMNS)
     title = f"`{task}`: RMSE per method and setting (mean ± 95 % CI over {_seeds_phrase(cells)})"
     written = tables.write_report(
-        directory, "rmse", wide, tables.display_frame(wide, tables.RMSE_COLUMNS), title,
+        directory,
+        "rmse",
+        wide,
+        tables.display_frame(wide, tables.RMSE_COLUMNS),
+        title,
         f"{description}\n\n{tables.legend(cells, INTERIOR_NOTE)}",
-    )  # fmt: skip
-    if write_error_figure is not None:
-        written.append(write_error_figure(wide, directory / "errors.png", title))
+    )
+    written.append(write_error_figure(wide, directory / "errors.png", title))
     written += ranking_report(cells, directory)
     if cells["metric"].isin(["bias_rmse", "noise_rmse"]).any():
-        linear = cells[cells.groupby(tables.ENTRY_KEYS)["metric"].transform(
-            lambda m: m.isin(["bias_rmse"]).any())]  # fmt: skip
+        linear = cells[
+            cells.groupby(tables.ENTRY_KEYS)["metric"].transform(
+                lambda m: m.isin(["bias_rmse"]).any()
+            )
+        ]
         parts = tables.wide_table(linear, tables.DECOMPOSITION_COLUMNS)
         written += tables.write_report(
-            directory, "decomposition", parts,
+            directory,
+            "decomposition",
+            parts,
             tables.display_frame(parts, tables.DECOMPOSITION_COLUMNS),
             f"`{task}`: error decomposition of the linear methods (interior RMS)",
             "For a linear method D, D(x + e) − x⁽ⁿ⁾ = [D(x) − x⁽ⁿ⁾] + D(e): **bias** = the "
             "method on the clean signal minus the truth, **noise** = the method on the noise "
             "alone; total² = bias² + noise² + 2·cross term.",
-        )  # fmt: skip
+        )
     mine = tunings[tunings["task"] == task] if len(tunings) else tunings
     if len(mine):
         written += tuning_report(cells, mine, directory)
@@ -65,8 +72,11 @@ def ranking_report(cells: pd.DataFrame, directory: Path) -> list[Path]:
     test detects 80 % of the time."""
     frames, parts = [], []
     for order in (1, 2):
-        chosen = cells[(cells["metric"] == "rmse") & (cells["order"] == order)
-                       & (cells["region"] == "interior")]  # fmt: skip
+        chosen = cells[
+            (cells["metric"] == "rmse")
+            & (cells["order"] == order)
+            & (cells["region"] == "interior")
+        ]
         if chosen.empty:
             continue
         table = ranking(chosen, "rmse", order, "interior", keys=tuple(tables.ENTRY_KEYS))
@@ -74,16 +84,22 @@ def ranking_report(cells: pd.DataFrame, directory: Path) -> list[Path]:
         labelled = tables.label_entries(table).sort_values("mean", kind="stable")
         labelled.insert(0, "derivative", ORDER_SYMBOLS[order])
         frames.append(labelled)
-        shown = pd.DataFrame({
-            "rank": range(1, len(labelled) + 1),
-            "method": labelled["method"], "setting": labelled["setting"],
-            "parameters": labelled["parameters"],
-            "RMSE": [tables.plus_minus(m, h) for m, h in zip(labelled["mean"], labelled["ci95"],
-                                                              strict=True)],
-            "better than next?": [_verdict(row) for _, row in labelled.iterrows()],
-            "detectable (80 %)": [tables.nan_to_dash(v, 2) for v in
-                                  labelled["detectable_difference_80"]],
-        })  # fmt: skip
+        shown = pd.DataFrame(
+            {
+                "rank": range(1, len(labelled) + 1),
+                "method": labelled["method"],
+                "setting": labelled["setting"],
+                "parameters": labelled["parameters"],
+                "RMSE": [
+                    tables.plus_minus(m, h)
+                    for m, h in zip(labelled["mean"], labelled["ci95"], strict=True)
+                ],
+                "better than next?": [_verdict(row) for _, row in labelled.iterrows()],
+                "detectable (80 %)": [
+                    tables.nan_to_dash(v, 2) for v in labelled["detectable_difference_80"]
+                ],
+            }
+        )
         parts.append(f"## {ORDER_SYMBOLS[order]}\n\n{tables.markdown_table(shown)}\n")
     text = (
         "# Rankings by interior RMSE\n\n" + "\n".join(parts) + "\n"
@@ -92,9 +108,11 @@ def ranking_report(cells: pd.DataFrame, directory: Path) -> list[Path]:
         "difference in mean RMSE that this test would find 80 % of the time with these seeds; a "
         "'no' next to a difference smaller than it says the run is too small to tell, not that "
         "the methods are equal.\n"
-    )  # fmt: skip
-    return [tables.write_text(directory / "ranking.md", text),
-            tables.write_csv(directory / "ranking.csv", pd.concat(frames))]  # fmt: skip
+    )
+    return [
+        tables.write_text(directory / "ranking.md", text),
+        tables.write_csv(directory / "ranking.csv", pd.concat(frames)),
+    ]
 
 
 def _verdict(row) -> str:
@@ -108,13 +126,17 @@ def tuning_report(cells: pd.DataFrame, tunings: pd.DataFrame, directory: Path) -
     """``tuning.md``/``.csv``: per method and derivative, the interior RMSE on the scoring seeds
     of the preset and of each tuned setting, the no-truth / oracle ratio and the tuning time."""
     chosen = cells[(cells["metric"] == "rmse") & (cells["region"] == "interior")]
-    means = chosen.groupby(["method", "origin", "criterion", "tuned_order", "order"],
-                           dropna=False)["value"].mean()  # fmt: skip
+    means = chosen.groupby(["method", "origin", "criterion", "tuned_order", "order"], dropna=False)[
+        "value"
+    ].mean()
     records = []
     for (method, order), group in tunings.groupby(["method", "order"], sort=True):
         record = {"method": method, "n": ORDER_SYMBOLS[int(order)]}
-        presets = chosen[(chosen["method"] == method) & (chosen["origin"] == "preset")
-                         & (chosen["order"] == order)]  # fmt: skip
+        presets = chosen[
+            (chosen["method"] == method)
+            & (chosen["origin"] == "preset")
+            & (chosen["order"] == order)
+        ]
         record["preset"] = presets["value"].mean() if len(presets) else float("nan")
         for criterion in CRITERION_NAMES:
             hit = group[group["criterion"] == criterion]
@@ -129,12 +151,15 @@ def tuning_report(cells: pd.DataFrame, tunings: pd.DataFrame, directory: Path) -
     for column in shown.columns[2:]:
         shown[column] = [tables.nan_to_dash(v, 4) for v in frame[column]]
     return tables.write_report(
-        directory, "tuning", frame, shown,
+        directory,
+        "tuning",
+        frame,
+        shown,
         "Tuning: interior RMSE on the scoring seeds of the preset and of each tuned setting",
         "Each tuned setting is tuned for the derivative n on the tuning seed (never scored); "
         "no-truth / oracle near 1 means the data-only criterion finds what the truth would; "
         "'s': seconds the tuning took (stored, not re-run).",
-    )  # fmt: skip
+    )
 
 
 def influence_report(cells: pd.DataFrame, directory: Path) -> list[Path]:
@@ -142,13 +167,16 @@ def influence_report(cells: pd.DataFrame, directory: Path) -> list[Path]:
     wide = tables.wide_table(cells, tables.DECOMPOSITION_COLUMNS)
     shown = tables.display_frame(wide, tables.DECOMPOSITION_COLUMNS)
     return tables.write_report(
-        directory, "table1", wide, shown,
+        directory,
+        "table1",
+        wide,
+        shown,
         "Table I of the paper, measured: bias and noise parts of the Jacobi error on "
         f"`paper-signal` (interior RMS, mean ± 95 % CI over {_seeds_phrase(cells)})",
         "Base preset κ = μ = 12, q = 6, T = 0.21 s (trapezoid rule, paper sec. III.C); each "
         "variant changes one design parameter. The paper's table I predicts: κ = μ or q up → "
         "noise up, bias down; T up → noise down, bias up.",
-    )  # fmt: skip
+    )
 
 
 IDENTIFICATION_SUMMARY = [
@@ -171,13 +199,13 @@ DFKI_SUMMARY = [
 ]
 
 
-def identification_table(cells: pd.DataFrame, names, truth=None,
-                         reference: tuple[str, np.ndarray] | None = None) -> pd.DataFrame:  # fmt: skip
+def identification_table(
+    cells: pd.DataFrame, names, truth=None, reference: tuple[str, np.ndarray] | None = None
+) -> pd.DataFrame:
     """The paper's table II layout: one row per parameter; per entry the mean over seeds of
     X̂, of its one-sigma σ_X and of %σ_Xr, and (with ``truth``) the relative error in %
     (mean and std over seeds). Column names ``<method> — <setting> X̂`` etc."""
-    summary = tables.summarise(cells).set_index([*tables.ENTRY_KEYS, "metric", "region",
-                                                 "order"])  # fmt: skip
+    summary = tables.summarise(cells).set_index([*tables.ENTRY_KEYS, "metric", "region", "order"])
     labelled = tables.label_entries(tables.entries(cells))
     records = []
     for index, name in enumerate(names):
@@ -190,8 +218,14 @@ def identification_table(cells: pd.DataFrame, names, truth=None,
             head = f"{entry['method']} — {entry['setting']}"
 
             def get(metric, statistic="mean", entry=entry):
-                index = (entry["method"], entry["params"], entry["role"], metric,
-                         "identification", 0)  # fmt: skip
+                index = (
+                    entry["method"],
+                    entry["params"],
+                    entry["role"],
+                    metric,
+                    "identification",
+                    0,
+                )
                 return summary[statistic].get(index, float("nan"))
 
             record[f"{head} X̂"] = get(f"estimate.{name}")
@@ -214,8 +248,9 @@ def identification_shown(table: pd.DataFrame, reference: str | None) -> pd.DataF
         for _, row in table.iterrows():
             text = f"{row[f'{head} X̂']:.4g} (σ {row[f'{head} σ']:.2g}, {row[f'{head} %σXr']:.3g} %)"
             if f"{head} error % mean" in table:
-                text += (f"; err {row[f'{head} error % mean']:+.2f} ± "
-                         f"{row[f'{head} error % std']:.2f} %")  # fmt: skip
+                text += (
+                    f"; err {row[f'{head} error % mean']:+.2f} ± {row[f'{head} error % std']:.2f} %"
+                )
             texts.append(text)
         shown[head] = texts
     return shown
@@ -229,23 +264,29 @@ def robot_sim_report(scenario, cells: pd.DataFrame, directory: Path) -> list[Pat
 
     table = identification_table(cells, robot2r.PARAMETER_NAMES, scenario.true_parameters)
     written = tables.write_report(
-        directory, "table2", table, identification_shown(table, "true"),
+        directory,
+        "table2",
+        table,
+        identification_shown(table, "true"),
         f"Base parameters of `{scenario.name}` identified with each differentiator (IDIM-LS; "
         "the paper's table II layout; means over seeds)",
         "X̂: mean estimate; σ: one standard deviation σ_X from σ_ρ²(WᵀW)⁻¹ (the paper's table "
         "II column 'σ' is about 2σ); %σXr = 100 σ/|X̂|; err: (X̂ − X)/X in %, mean ± std over "
         "seeds. L = 0.5 m.",
-    )  # fmt: skip
+    )
     mask = well_excited(scenario)
     excited = ", ".join(n for n, w in zip(robot2r.PARAMETER_NAMES, mask, strict=True) if w)
     wide = tables.wide_table(cells, IDENTIFICATION_SUMMARY)
     written += tables.write_report(
-        directory, "summary", wide, tables.display_frame(wide, IDENTIFICATION_SUMMARY),
+        directory,
+        "summary",
+        wide,
+        tables.display_frame(wide, IDENTIFICATION_SUMMARY),
         f"Identification on `{scenario.name}`: parameter error, torque prediction on a fresh "
         f"trajectory, derivative errors (mean ± 95 % CI over {_seeds_phrase(cells)})",
         "‖X̂−X‖/‖X‖ over the parameters identified to < 10 % relative σ with exact derivatives "
         f"({excited}).\n\n{tables.legend(cells)}",
-    )  # fmt: skip
+    )
     written += paper.write_figure5(directory, scenario.name)
     return written
 
@@ -256,20 +297,27 @@ def dfki_report(cells: pd.DataFrame, directory: Path) -> list[Path]:
 
     wide = tables.wide_table(cells, DFKI_SUMMARY)
     written = tables.write_report(
-        directory, "summary", wide, tables.display_frame(wide, DFKI_SUMMARY),
+        directory,
+        "summary",
+        wide,
+        tables.display_frame(wide, DFKI_SUMMARY),
         "DFKI double pendulum: measured-torque prediction on the held-out run after "
         "identification on the other five (mean ± 95 % CI over the 6 folds)",
         "τ RMSE: identified model vs measured torque, both decimated alike (F_p = 5 Hz), on "
         "the actuated joints of the held-out run; lab: the lab's published model with the same "
         "derivatives; q̇ vs driver: RMSE against the motor driver's own velocity estimate.\n\n"
         f"{tables.legend(cells)}",
-    )  # fmt: skip
-    table = identification_table(cells, dfki.PENDULUM_PARAMETER_NAMES,
-                                 reference=("lab", dfki.lab_base_parameters()))  # fmt: skip
+    )
+    table = identification_table(
+        cells, dfki.PENDULUM_PARAMETER_NAMES, reference=("lab", dfki.lab_base_parameters())
+    )
     written += tables.write_report(
-        directory, "table2", table, identification_shown(table, "lab"),
+        directory,
+        "table2",
+        table,
+        identification_shown(table, "lab"),
         "DFKI double pendulum base parameters identified with each differentiator (mean over "
         "the 6 leave-one-run-out fits; column 'lab' holds the lab's published model)",
         "X̂ (σ one standard deviation, %σXr); see signals/dfki.py for the base parameters.",
-    )  # fmt: skip
+    )
     return written

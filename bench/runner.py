@@ -116,13 +116,23 @@ def run(
     iterable = progress(paired, len(pending)) if progress else paired
     computed = others = 0
     for cell, (scores, elapsed) in iterable:
-        stored = store.add_cell(task=cell.task, method=cell.method, params=cell.params,
-                                seed=cell.seed, role=cell.role.as_dict(), scores=scores,
-                                elapsed_s=elapsed)  # fmt: skip
+        stored = store.add_cell(
+            task=cell.task,
+            method=cell.method,
+            params=cell.params,
+            seed=cell.seed,
+            role=cell.role.as_dict(),
+            scores=scores,
+            elapsed_s=elapsed,
+        )
         computed += stored
         others += not stored
-    return RunSummary(total=len(cells), skipped=len(cells) - len(pending), computed=computed,
-                      stored_by_others=others)  # fmt: skip
+    return RunSummary(
+        total=len(cells),
+        skipped=len(cells) - len(pending),
+        computed=computed,
+        stored_by_others=others,
+    )
 
 
 # --- tuning, stored and reused ------------------------------------------------------------
@@ -139,9 +149,15 @@ class TuningJob:
     budget: int | None = None
 
     def fields(self) -> dict[str, Any]:
-        return {"task": self.task, "method": self.method, "criterion": self.criterion,
-                "order": self.order, "tuning_seed": self.tuning_seed,
-                "cutoff_hz": self.cutoff_hz, "budget": self.budget}  # fmt: skip
+        return {
+            "task": self.task,
+            "method": self.method,
+            "criterion": self.criterion,
+            "order": self.order,
+            "tuning_seed": self.tuning_seed,
+            "cutoff_hz": self.cutoff_hz,
+            "budget": self.budget,
+        }
 
     @property
     def role(self) -> Role:
@@ -153,17 +169,36 @@ def _tune(job: TuningJob) -> dict[str, Any] | None:
 
     realisation = get_task(job.task).tuning_data(job.tuning_seed)
     try:
-        result = tuning.tune(job.method, realisation, job.order, job.criterion, job.cutoff_hz,
-                             max_evaluations=job.budget)  # fmt: skip
+        result = tuning.tune(
+            job.method,
+            realisation,
+            job.order,
+            job.criterion,
+            job.cutoff_hz,
+            max_evaluations=job.budget,
+        )
     except tuning.NoRoomToTune as error:  # the method cannot cover the task at all
-        return {"params": {}, "loss": float("inf"), "evaluations": 0, "seconds": 0.0,
-                "note": str(error)}  # fmt: skip
+        return {
+            "params": {},
+            "loss": float("inf"),
+            "evaluations": 0,
+            "seconds": 0.0,
+            "note": str(error),
+        }
     if not math.isfinite(result.loss):  # no setting estimates the task's interior
-        return {"params": {}, "loss": float("inf"), "evaluations": result.evaluations,
-                "seconds": result.seconds}  # fmt: skip
+        return {
+            "params": {},
+            "loss": float("inf"),
+            "evaluations": result.evaluations,
+            "seconds": result.seconds,
+        }
     params = {**methods.get(job.method).params(), **result.params}
-    return {"params": params, "loss": result.loss, "evaluations": result.evaluations,
-            "seconds": result.seconds}  # fmt: skip
+    return {
+        "params": params,
+        "loss": result.loss,
+        "evaluations": result.evaluations,
+        "seconds": result.seconds,
+    }
 
 
 @dataclass
@@ -175,8 +210,9 @@ class TuningSummary:
     computed: int = 0
 
 
-def tune_all(jobs_list: Sequence[TuningJob], store: Store, jobs: int = 1,
-             progress: Callable | None = None) -> tuple[dict[TuningJob, dict], TuningSummary]:  # fmt: skip
+def tune_all(
+    jobs_list: Sequence[TuningJob], store: Store, jobs: int = 1, progress: Callable | None = None
+) -> tuple[dict[TuningJob, dict], TuningSummary]:
     """The stored tuning of every job, tuning (and storing) only those not stored yet.
 
     Returns ``{job: record}`` (``record["params"]`` is empty when the method could not be
@@ -189,8 +225,13 @@ def tune_all(jobs_list: Sequence[TuningJob], store: Store, jobs: int = 1,
     results = ordered_map(_tune, missing, jobs)
     paired = zip(missing, results, strict=True)
     for job, result in progress(paired, len(missing)) if progress else paired:
-        store.add_tuning(**job.fields(), params=result["params"], loss=result["loss"],
-                         evaluations=result["evaluations"], seconds=result["seconds"])  # fmt: skip
+        store.add_tuning(
+            **job.fields(),
+            params=result["params"],
+            loss=result["loss"],
+            evaluations=result["evaluations"],
+            seconds=result["seconds"],
+        )
         found[job] = store.find_tuning(**job.fields())
     summary = TuningSummary(len(jobs_list), len(jobs_list) - len(missing), len(missing))
     return found, summary
@@ -198,9 +239,20 @@ def tune_all(jobs_list: Sequence[TuningJob], store: Store, jobs: int = 1,
 
 def tuned_entries(found: Mapping[TuningJob, dict]) -> list[Entry]:
     """An entry per successful tuning (one that found parameters)."""
-    return [Entry(job.method, record["params"], job.role) for job, record in found.items()
-            if record["params"]]  # fmt: skip
+    return [
+        Entry(job.method, record["params"], job.role)
+        for job, record in found.items()
+        if record["params"]
+    ]
 
 
-__all__ = ["Cell", "Entry", "RunSummary", "TuningJob", "canonical", "preset_entry", "run",
-           "tune_all"]  # fmt: skip
+__all__ = [
+    "Cell",
+    "Entry",
+    "RunSummary",
+    "TuningJob",
+    "canonical",
+    "preset_entry",
+    "run",
+    "tune_all",
+]

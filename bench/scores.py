@@ -8,6 +8,7 @@ same for every method of a comparison, so rankings are fair).
 from __future__ import annotations
 
 import numpy as np
+
 from diffbench.methods import Estimate
 
 REGIONS = ("valid", "interior")

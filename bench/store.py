@@ -35,8 +35,9 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
-from diffbench.bench.provenance import provenance
 from filelock import FileLock
+
+from diffbench.bench.provenance import provenance
 
 FORMAT = "diffbench-store"
 VERSION = 1
@@ -184,6 +185,8 @@ class RecordFile:
                 else:
                     bad.append((number, raw, "a second header line"))
             elif kind == "bad":
+                if number == 1:
+                    reason = f"not this store's header line ({reason})"
                 bad.append((number, raw, reason))
             elif kind == "blank":
                 continue

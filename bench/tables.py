@@ -16,13 +16,22 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
 from diffbench import methods
 from diffbench.bench.roles import ORDER_SYMBOLS, Role
 from diffbench.bench.stats import confidence_interval
 
 ENTRY_KEYS = ["method", "params", "role"]
-ROLE_COLUMNS = ["origin", "preset", "by", "criterion", "tuned_order", "tuning_seed", "cutoff_hz",
-                "variant"]  # fmt: skip
+ROLE_COLUMNS = [
+    "origin",
+    "preset",
+    "by",
+    "criterion",
+    "tuned_order",
+    "tuning_seed",
+    "cutoff_hz",
+    "variant",
+]
 REGION_LABELS = {"interior": "interior", "valid": "own valid samples"}
 
 # (column label, metric, derivative order, region)
@@ -74,8 +83,11 @@ def label_entries(frame: pd.DataFrame) -> pd.DataFrame:
     frame = frame.copy()
     roles = [role_of(row) for _, row in frame.iterrows()]
     frame.insert(1, "setting", [role.label for role in roles])
-    frame.insert(2, "parameters", [readable_params(m, p) for m, p in
-                                   zip(frame["method"], frame["params"], strict=True)])  # fmt: skip
+    frame.insert(
+        2,
+        "parameters",
+        [readable_params(m, p) for m, p in zip(frame["method"], frame["params"], strict=True)],
+    )
     frame["_sort"] = [role.sort_key for role in roles]
     frame = frame.sort_values(["method", "_sort", "params"], kind="stable").drop(columns="_sort")
     return frame.reset_index(drop=True)
@@ -132,10 +144,18 @@ def wide_table(rows: pd.DataFrame, columns) -> pd.DataFrame:
                 index = (entry["method"], entry["params"], entry["role"], metric, region, order)
                 values.append(summary[statistic].get(index, float("nan")))
             table[f"{label} {statistic}"] = values
-        seeds.append([summary["seeds"].get((e["method"], e["params"], e["role"], metric, region,
-                                            order), np.nan) for _, e in table.iterrows()])  # fmt: skip
-    table["seeds"] = pd.array(np.nanmin(np.array(seeds, dtype=float), axis=0).astype(int)
-                              if seeds and len(table) else [], dtype="Int64")  # fmt: skip
+        seeds.append(
+            [
+                summary["seeds"].get(
+                    (e["method"], e["params"], e["role"], metric, region, order), np.nan
+                )
+                for _, e in table.iterrows()
+            ]
+        )
+    table["seeds"] = pd.array(
+        np.nanmin(np.array(seeds, dtype=float), axis=0).astype(int) if seeds and len(table) else [],
+        dtype="Int64",
+    )
     return label_entries(table)
 
 
@@ -165,8 +185,10 @@ def display_frame(wide: pd.DataFrame, columns) -> pd.DataFrame:
         if metric == "coverage":
             shown[label] = [f"{v:.3f}" if np.isfinite(v) else "—" for v in wide[f"{label} mean"]]
         else:
-            shown[label] = [plus_minus(m, h) for m, h in
-                            zip(wide[f"{label} mean"], wide[f"{label} ci95"], strict=True)]  # fmt: skip
+            shown[label] = [
+                plus_minus(m, h)
+                for m, h in zip(wide[f"{label} mean"], wide[f"{label} ci95"], strict=True)
+            ]
     shown["seeds"] = wide["seeds"].astype(str)
     return shown
 
@@ -184,14 +206,22 @@ def write_csv(path: Path, frame: pd.DataFrame) -> Path:
     return write_text(path, frame.to_csv(index=False))
 
 
-def write_report(directory: Path, stem: str, csv_frame: pd.DataFrame, shown: pd.DataFrame,
-                 title: str, legend: str = "") -> list[Path]:  # fmt: skip
+def write_report(
+    directory: Path,
+    stem: str,
+    csv_frame: pd.DataFrame,
+    shown: pd.DataFrame,
+    title: str,
+    legend: str = "",
+) -> list[Path]:
     """``<stem>.md`` (title, table, legend) and ``<stem>.csv`` (full precision)."""
     text = f"# {title}\n\n{markdown_table(shown)}\n"
     if legend:
         text += f"\n{legend}\n"
-    return [write_text(directory / f"{stem}.md", text),
-            write_csv(directory / f"{stem}.csv", csv_frame)]  # fmt: skip
+    return [
+        write_text(directory / f"{stem}.md", text),
+        write_csv(directory / f"{stem}.csv", csv_frame),
+    ]
 
 
 def csv_view(wide: pd.DataFrame) -> pd.DataFrame:
@@ -215,12 +245,16 @@ def legend(rows: pd.DataFrame, extra: str = "") -> str:
             except ValueError:
                 sources.append(f"{row['method']}: preset {row['preset']}")
         key = presets["preset"].iloc[0]
-        lines.append(f"- **preset**: each method's `{key}` preset, by the paper or by diffbench "
-                     f"(sources: `diffbench list`).")  # fmt: skip
+        lines.append(
+            f"- **preset**: each method's `{key}` preset, by the paper or by diffbench "
+            f"(sources: `diffbench list`)."
+        )
     for criterion in sorted({c for c in table["criterion"] if c}):
         seeds = sorted({int(s) for s in table[table["criterion"] == criterion]["tuning_seed"]})
-        lines.append(f"- **{CRITERION_NAMES[criterion]}-tuned for n**: {CRITERION_LEGEND[criterion]}"
-                     f" (noise seed {', '.join(map(str, seeds))}, never scored).")  # fmt: skip
+        lines.append(
+            f"- **{CRITERION_NAMES[criterion]}-tuned for n**: {CRITERION_LEGEND[criterion]}"
+            f" (noise seed {', '.join(map(str, seeds))}, never scored)."
+        )
     if extra:
         lines.append(extra)
     return "\n".join(lines)

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import ClassVar
 
 import pandas as pd
+
 from diffbench import methods, signals
 from diffbench.bench import reports
 from diffbench.bench.roles import Role

@@ -31,8 +31,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from diffbench import methods
 from scipy import integrate, optimize
+
+from diffbench import methods
 
 CRITERIA = ("oracle", "no-truth", "pynumdiff")
 

@@ -22,8 +22,9 @@ from dataclasses import dataclass
 from typing import Any, ClassVar, TypeVar
 
 import numpy as np
-from diffbench.signals._checks import check_real, check_real_tuple, check_times, read_only
 from numpy.polynomial import polynomial as npoly
+
+from diffbench.signals._checks import check_real, check_real_tuple, check_times, read_only
 
 MAX_ORDER = 2
 """Highest derivative order every signal provides exactly."""

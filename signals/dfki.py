@@ -99,6 +99,7 @@ from importlib.resources import files
 from typing import TYPE_CHECKING
 
 import numpy as np
+
 from diffbench.signals._checks import check_real, check_samples, check_times, read_only
 
 if TYPE_CHECKING:  # Python >= 3.11; annotations only

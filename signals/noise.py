@@ -18,6 +18,7 @@ import abc
 from dataclasses import dataclass
 
 import numpy as np
+
 from diffbench.signals._checks import check_bool, check_real, check_rng, check_samples, check_times
 
 

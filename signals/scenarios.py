@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
 from diffbench.signals._checks import check_real, check_seed, check_times, read_only
 from diffbench.signals.clean import Chirp, DampedOscillation, PaperSines, Polynomial, Signal, Truth
 from diffbench.signals.noise import Gaussian, NoiseStack, Poisson, Quantisation, Sinusoid
@@ -359,8 +360,11 @@ def grid_scenario_names() -> list[str]:
 def vanishing_disturbances(scenario: Scenario) -> list[str]:
     """The sinusoidal disturbances of ``scenario`` that sampling at its step aliases to 0 Hz
     (constant samples, so no noise at all): e.g. 200 Hz at Ts = 10 ms."""
-    return [model.describe() for model in scenario.noise.models
-            if isinstance(model, Sinusoid) and model.aliased_frequency_hz(scenario.dt_s) == 0.0]
+    return [
+        model.describe()
+        for model in scenario.noise.models
+        if isinstance(model, Sinusoid) and model.aliased_frequency_hz(scenario.dt_s) == 0.0
+    ]
 
 
 for _kind in GRID_NOISE_TYPES:

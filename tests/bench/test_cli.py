@@ -1,70 +1,128 @@
-"""The CLI, called in-process through main([...])."""
+"""The CLI, called in-process through main([...]) (and as a process where exit codes matter)."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
+
+from diffbench.bench import runner, tuning
 from diffbench.bench.cli import main
+from diffbench.bench.store import Store
+
+ROOT = Path(__file__).resolve().parents[2]
+ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 
 
-def test_list_shows_methods_parameters_presets_signals_and_scenarios(capsys):
+def test_list_shows_methods_parameters_presets_and_tasks(capsys):
     assert main(["list"]) == 0
     out = capsys.readouterr().out
-    for text in (
-        "butterworth",
-        "cutoff_hz",
-        "preset paper-signal: order=6, cutoff_hz=25.0",
-        "savitzky_golay",
-        "window_s",
-        "paper_sines",
-        "paper-signal",
-    ):
+    for text in ("butterworth", "cutoff_hz", "preset paper-signal (preset (paper)): order=6, "
+                 "cutoff_hz=25.0", "savitzky_golay", "window_s", "paper-signal [signal]",
+                 "robot-sim [robot (simulated)]", "dfki-cv [robot (real)]",
+                 "jacobi-influence", "36 grid tasks"):  # fmt: skip
         assert text in out
+    assert "grid-gaussian-0.02-0.1ms [" not in out
+
+
+def test_version(capsys):
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.startswith("diffbench ")
 
 
 def test_run_writes_store_and_tables_then_resumes(tmp_path, capsys):
-    args = [
-        "run",
-        "paper-signal",
-        "--seeds",
-        "2",
-        "--out",
-        str(tmp_path),
-        "--no-progress",
-        "--methods",
-        "finite_difference,butterworth",
-    ]
+    args = ["run", "paper-signal", "--seeds", "2", "--out", str(tmp_path), "--no-progress",
+            "--methods", "finite_difference,butterworth"]  # fmt: skip
     assert main(args) == 0
     assert "4 cells computed, 0 already stored" in capsys.readouterr().out
     table = (tmp_path / "paper-signal" / "rmse.md").read_text()
-    assert "| butterworth |" in table and "RMSE ẍ interior" in table
+    assert "| butterworth       | preset (paper) | order=6, cutoff_hz=25 " in table
+    assert "RMSE ẍ interior" in table and "Presets —" not in table
     assert main([*args[:3], "3", *args[4:]]) == 0
     assert "2 cells computed, 4 already stored" in capsys.readouterr().out
-    assert main(["table", "paper-signal", "--out", str(tmp_path)]) == 0
+    assert main(["report", "paper-signal", "--out", str(tmp_path)]) == 0
+
+
+def test_repeated_method_names_run_once(tmp_path, capsys):
+    args = ["run", "paper-signal", "--seeds", "2", "--out", str(tmp_path), "--no-progress",
+            "--methods", "jacobi,jacobi"]  # fmt: skip
+    assert main(args) == 0
+    assert "2 cells computed" in capsys.readouterr().out
+    assert len(Store(tmp_path / "store").cells.records) == 2
+    import pandas as pd
+
+    table = pd.read_csv(tmp_path / "paper-signal" / "rmse.csv")
+    assert table["method"].tolist() == ["jacobi"] and table["seeds"].tolist() == [2]
 
 
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["run", "no-such-scenario"], "unknown scenario"),
+        (["run", "no-such-task"], "unknown task 'no-such-task'"),
         (["run", "paper-signal", "--seeds", "0"], "--seeds: must be a whole number >= 1"),
         (["run", "paper-signal", "--seeds", "many"], "--seeds: must be a whole number >= 1"),
         (["run", "paper-signal", "--methods", "jacobbi"], "unknown method 'jacobbi'"),
+        (["run", "paper-signal", "--methods", ","], "--methods: must name at least one"),
         (["frobnicate"], "invalid choice"),
         ([], "required"),
-        (["table", "paper-signal", "--out", "/nonexistent-dir"], "no results at"),
+        (["report", "paper-signal", "--out", "/nonexistent-dir"], "no results store"),
         (["run", "paper-signal", "--out", "/proc/diffbench"], "/proc/diffbench"),
+        (["tune", "all", "paper-signal", "--criteria", "no-truth", "--cutoff-hz", "0"],
+         "--cutoff-hz: must be a finite number > 0, got 0"),
+        (["tune", "all", "paper-signal", "--criteria", "pynumdiff", "--cutoff-hz", "inf"],
+         "--cutoff-hz: must be a finite number > 0, got inf"),
+        (["tune", "all", "paper-signal", "--criteria", "no-truth", "--cutoff-hz", "500"],
+         "--cutoff-hz must lie strictly inside (0, 500) Hz"),
+        (["tune", "all", "paper-signal", "--criteria", "magic"], "--criteria: must be among"),
+        (["tune", "all", "paper-signal", "--orders", "3"], "--orders: must be 1, 2 or 1,2"),
+        (["tune", "all", "robot-sim"], "task 'robot-sim' cannot be tuned"),
+        (["run", "dfki-cv", "--seeds", "7"], "--seeds must be at most 6"),
     ],
-)
-def test_bad_input_is_one_line_and_exit_code_2(argv, message, capsys, tmp_path):
+)  # fmt: skip
+def test_bad_input_is_one_line_and_exit_code_2(argv, message, capsys):
     assert main(argv) == 2
     captured = capsys.readouterr()
     lines = captured.err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("diffbench: error:")
+    assert len(lines) == 1 and lines[0].startswith("diffbench: error:"), captured.err
     assert message in lines[0]
     assert "Traceback" not in captured.err
 
 
-def test_ctrl_c_keeps_finished_cells_and_exits_130(tmp_path, capsys, monkeypatch):
-    from diffbench.bench import runner
+def test_an_internal_error_is_a_traceback_not_a_usage_error(tmp_path, monkeypatch):
+    def broken(cell):
+        raise ValueError("a bug deep inside")
 
+    monkeypatch.setattr(runner, "compute_cell", broken)
+    with pytest.raises(ValueError, match="a bug deep inside"):
+        main(["run", "paper-signal", "--seeds", "1", "--methods", "jacobi", "--out",
+              str(tmp_path), "--no-progress"])  # fmt: skip
+    script = ("import sys; from diffbench.bench import runner, cli\n"
+              "def broken(cell): raise ValueError('a bug deep inside')\n"
+              "runner.compute_cell = broken\n"
+              f"sys.exit(cli.main(['run', 'paper-signal', '--seeds', '1', '--out', "
+              f"{str(tmp_path / 'p')!r}, '--no-progress']))")  # fmt: skip
+    result = subprocess.run([sys.executable, "-c", script], env=ENV, capture_output=True,
+                            text=True)  # fmt: skip
+    assert result.returncode == 1
+    assert "Traceback" in result.stderr and "a bug deep inside" in result.stderr
+
+
+def test_a_closed_pipe_ends_quietly():
+    """`diffbench list | head`: the reader goes away before the output is written."""
+    process = subprocess.Popen(
+        [sys.executable, "-m", "diffbench.bench", "list"],
+        env=ENV,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    process.stdout.close()  # no reader left: every write fails with EPIPE
+    err = process.stderr.read()
+    assert process.wait(timeout=60) == 141
+    assert err == b""
+
+
+def test_ctrl_c_keeps_finished_cells_and_exits_130(tmp_path, capsys, monkeypatch):
     real = runner.compute_cell
     calls = []
 
@@ -75,20 +133,38 @@ def test_ctrl_c_keeps_finished_cells_and_exits_130(tmp_path, capsys, monkeypatch
         return real(cell)
 
     monkeypatch.setattr(runner, "compute_cell", interrupted_on_third)
-    args = [
-        "run",
-        "paper-signal",
-        "--seeds",
-        "2",
-        "--out",
-        str(tmp_path),
-        "--no-progress",
-        "--methods",
-        "finite_difference,butterworth",
-    ]
+    args = ["run", "paper-signal", "--seeds", "2", "--out", str(tmp_path), "--no-progress",
+            "--methods", "finite_difference,butterworth"]  # fmt: skip
     assert main(args) == 130
     err = capsys.readouterr().err
     assert "interrupted; 2 cells are stored" in err and "Traceback" not in err
     monkeypatch.setattr(runner, "compute_cell", real)
     assert main(args) == 0
     assert "2 cells computed, 2 already stored" in capsys.readouterr().out
+
+
+def test_rerun_of_tune_retunes_nothing_and_tuning_is_reproducible(tmp_path, capsys, monkeypatch):
+    calls = []
+    real = tuning.tune
+
+    def counted(*args, **kwargs):
+        calls.append(args[0])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(tuning, "tune", counted)
+    args = ["tune", "butterworth,finite_difference", "paper-signal", "--criteria",
+            "oracle,no-truth", "--orders", "1,2", "--seeds", "2", "--no-progress"]  # fmt: skip
+    assert main([*args, "--out", str(tmp_path / "a")]) == 0
+    assert len(calls) == 8
+    assert "8 tunings computed, 0 reused" in capsys.readouterr().out
+    assert main([*args, "--out", str(tmp_path / "a")]) == 0
+    assert len(calls) == 8  # nothing re-tuned
+    assert "0 tunings computed, 8 reused" in capsys.readouterr().out
+    assert main([*args, "--out", str(tmp_path / "b")]) == 0  # a fresh store: tuned again
+    assert len(calls) == 16
+    first, second = (Store(tmp_path / d / "store").tunings_frame() for d in ("a", "b"))
+    columns = ["method", "criterion", "order", "params", "loss"]
+    key = ["method", "criterion", "order"]
+    assert first[columns].sort_values(key).to_numpy().tolist() == (
+        second[columns].sort_values(key).to_numpy().tolist()
+    )  # identical, bit for bit

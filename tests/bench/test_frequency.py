@@ -2,9 +2,10 @@
 
 import numpy as np
 import pytest
+from scipy import optimize
+
 from diffbench import methods, signals
 from diffbench.bench.frequency import cutoff_hz, decompose_error, noise_gain, relative_response
-from scipy import optimize
 
 DT = 1e-3
 

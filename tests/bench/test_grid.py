@@ -1,8 +1,11 @@
 """The scenario grid and its winners table."""
 
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
+
 from diffbench import signals
 from diffbench.bench import grid
 from diffbench.signals.scenarios import GRID_NOISE_LEVELS, GRID_NOISE_TYPES, GRID_STEPS_S
@@ -23,23 +26,49 @@ def test_grid_has_every_noise_type_level_and_step():
 
 
 def test_tuning_job_returns_full_valid_parameters_on_a_coarse_step():
-    _, params = grid._tuned(("jacobi", "grid-gaussian-0.2-10ms", 2))
-    assert params is not None
+    from diffbench.bench.runner import TuningJob, _tune
+
+    job = TuningJob("grid-gaussian-0.2-10ms", "jacobi", "oracle", 2, grid.TUNING_SEED, None,
+                    grid.BUDGET)  # fmt: skip
+    params = _tune(job)["params"]
+    assert params
     for key in ("window_s", "accel_window_s"):
         steps = params[key] / 1e-2
         assert abs(steps - round(steps)) < 1e-9 and round(steps) % 2 == 0
 
 
-def test_winners_names_the_best_method_and_tests_significance():
+def _rows(name, entries, order=2, seeds=8):
     rows = []
-    rng = np.random.default_rng(0)
-    name = "grid-gaussian-0.2-1ms"
-    base = rng.normal(10, 2, size=8)
-    for method, shift in (("a", 0.0), ("b", 1.0)):
-        rows += [{"method": method, "params": "{}", "preset": "tuned: oracle for ẍ on seed 1",
-                  "scenario": name, "metric": "rmse", "order": 2, "region": "interior",
-                  "seed": seed, "value": value + shift}
-                 for seed, value in enumerate(base)]  # fmt: skip
-    table = grid.winners(pd.DataFrame(rows), order=2)
-    row = table[table["step_ms"] == 1.0].iloc[0]
+    base = np.random.default_rng(0).normal(10, 2, size=seeds)
+    for method, shift in entries:
+        rows += [{"task": name, "method": method, "params": "{}", "tuned_order": order,
+                  "metric": "rmse", "order": order, "region": "interior", "seed": seed,
+                  "value": value + shift} for seed, value in enumerate(base)]  # fmt: skip
+    frame = pd.DataFrame(rows)
+    frame["tuned_order"] = frame["tuned_order"].astype("Int64")
+    return frame
+
+
+def test_winners_names_the_best_method_and_tests_significance():
+    table = grid.winners(_rows("grid-gaussian-0.2-1ms", (("a", 0.0), ("b", 1.0))), order=2)
+    row = table[(table["noise"] == "gaussian") & (table["level"] == 0.2)
+                & (table["step_ms"] == 1.0)].iloc[0]  # fmt: skip
     assert row["winner"] == "a" and row["runner_up"] == "b" and bool(row["significant"])
+    assert row["detectable_difference_80"] == 0.0  # the same difference on every seed
+
+
+def test_aliased_disturbance_is_labelled_not_ranked(tmp_path):
+    """200 Hz sampled every 10 ms lands on its zeros: the sinusoid-only cells hold no noise."""
+    from diffbench.signals.scenarios import vanishing_disturbances
+
+    clean = signals.get_scenario("grid-sinusoid-0.2-10ms").realise(3)
+    assert np.max(np.abs(clean.x - clean.truth[0])) < 1e-12  # rounding of sin(2πk·2)
+    assert vanishing_disturbances(signals.get_scenario("grid-sinusoid-0.2-10ms"))
+    assert not vanishing_disturbances(signals.get_scenario("grid-sinusoid-0.2-1ms"))
+    rows = _rows("grid-sinusoid-0.2-10ms", (("a", 0.0), ("b", 1.0)))
+    rows = pd.concat([rows, _rows("grid-combined-0.2-10ms", (("a", 0.0), ("b", 1.0)))])
+    written = grid.write_winners(rows, tmp_path)
+    text = (tmp_path / "winners_acceleration.md").read_text()
+    assert "no noise (200 Hz aliases to 0 Hz)" in text
+    assert re.search(r"\| a\* \([\d.]+; next b [\d.]+\) † +\|", text)  # ranked, marked
+    assert len(written) == 2  # no rows tuned for ẋ: no velocity table

@@ -2,11 +2,12 @@
 
 import numpy as np
 import pytest
+
 from diffbench import methods
 from diffbench.bench import robot
 from diffbench.bench.cli import main
 from diffbench.bench.identification import decimation_factor, idim_ls, parallel_decimation
-from diffbench.bench.runner import Cell, compute_cell
+from diffbench.bench.runner import compute_cell, preset_entry
 from diffbench.signals import robot2r
 
 NAMES = robot2r.PARAMETER_NAMES
@@ -62,8 +63,8 @@ def test_sigma_is_one_standard_deviation(scenario):
 
 def test_every_method_identifies_the_well_excited_parameters_within_a_few_percent(scenario):
     for name in methods.available():
-        rows = compute_cell(Cell(name, methods.preset(name, "robot").params(),
-                                 "robot-sim-short", 0))  # fmt: skip
+        (cell,) = preset_entry(name, "robot").cells("robot-sim-short", [0])
+        rows = compute_cell(cell)
         values = {row["metric"]: row["value"] for row in rows if row["order"] == 0}
         assert values["param_error_norm"] < 0.05, name
         assert values["cond_W"] < 50
@@ -105,16 +106,16 @@ def test_bad_input(scenario, change, message):
         idim_ls(observation, torques, names)
 
 
-def test_identify_cli_writes_the_tables_and_rejects_an_unknown_method(tmp_path, capsys):
-    args = ["identify", "sim", "--scenario", "robot-sim-short", "--seeds", "2", "--out",
-            str(tmp_path), "--methods", "jacobi,butterworth", "--no-progress"]  # fmt: skip
+def test_run_robot_sim_writes_the_tables_and_rejects_an_unknown_method(tmp_path, capsys):
+    args = ["run", "robot-sim-short", "--seeds", "2", "--out", str(tmp_path), "--methods",
+            "jacobi,butterworth", "--no-progress"]  # fmt: skip
     assert main(args) == 0
-    table = (tmp_path / "identify-robot-sim-short" / "table2.md").read_text()
-    assert "| ZZ1R | 3.496 |" in table and "σ" in table
-    summary = (tmp_path / "identify-robot-sim-short" / "summary.md").read_text()
-    assert "| jacobi |" in summary and "cond(W)" in summary
-    assert (tmp_path / "identify-robot-sim-short" / "fig5_robot_derivatives.png").exists()
-    bad = ["identify", "sim", "--scenario", "robot-sim-short", "--methods", "jacobbi"]
+    table = (tmp_path / "robot-sim-short" / "table2.md").read_text()
+    assert "| ZZ1R        | 3.496  |" in table and "σ" in table
+    summary = (tmp_path / "robot-sim-short" / "summary.md").read_text()
+    assert "| jacobi " in summary and "cond(W)" in summary
+    assert (tmp_path / "robot-sim-short" / "fig5_robot_derivatives.png").exists()
+    bad = ["run", "robot-sim-short", "--methods", "jacobbi"]
     assert main(bad) == 2
     assert "unknown method 'jacobbi'" in capsys.readouterr().err
 
@@ -144,11 +145,13 @@ def test_dfki_passive_joints_are_not_scored():
     assert "torque_rmse.joint2" in metrics and "torque_rmse.joint1" not in metrics
 
 
-def test_identify_dfki_cli(tmp_path):
-    args = ["identify", "dfki", "--out", str(tmp_path), "--methods", "finite_difference",
+def test_run_dfki_cli(tmp_path, capsys):
+    args = ["run", "dfki-cv", "--out", str(tmp_path), "--methods", "finite_difference",
             "--no-progress"]  # fmt: skip
     assert main(args) == 0
-    summary = (tmp_path / "identify-dfki" / "summary.md").read_text()
+    summary = (tmp_path / "dfki-cv" / "summary.md").read_text()
     assert "| finite_difference |" in summary and "lab τ RMSE joint 1" in summary
-    table = (tmp_path / "identify-dfki" / "table2.md").read_text()
+    table = (tmp_path / "dfki-cv" / "table2.md").read_text()
     assert "A5_g_m1r1_m2l1" in table
+    assert main([*args, "--seeds", "7"]) == 2
+    assert "--seeds must be at most 6" in capsys.readouterr().err

@@ -1,5 +1,6 @@
-"""The runner and its store: bit-identical results, resumption after an interruption."""
+"""The runner and its store: bit-identical results, resumption, concurrent writers, no orphans."""
 
+import json
 import os
 import signal
 import subprocess
@@ -9,70 +10,67 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from diffbench.bench import runner, tables
-from diffbench.bench.store import COLUMNS, ResultStore
+from diffbench.bench.store import Store
+from diffbench.bench.tasks import available_tasks, get_task
 
 ROOT = Path(__file__).resolve().parents[2]
+ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
+CLI = [sys.executable, "-m", "diffbench.bench"]
 
 
-def _cells(seeds=3, names=("finite_difference", "savitzky_golay")):
-    return runner.preset_cells("paper-signal", range(seeds), list(names))
+def _cells(seeds=3, names=("finite_difference", "savitzky_golay"), task="paper-signal"):
+    entries = get_task(task).lineup(list(names))
+    return [cell for seed in range(seeds) for entry in entries
+            for cell in entry.cells(task, [seed])]  # fmt: skip
 
 
-def test_cells_expand_methods_times_seeds_with_presets():
-    cells = _cells(seeds=2, names=("butterworth", "savitzky_golay"))
+def _values(store: Store) -> np.ndarray:
+    frame = store.cells_frame()
+    return frame.sort_values(["method", "seed", "metric", "region", "order"])["value"].to_numpy()
+
+
+def test_cells_expand_methods_times_seeds_with_presets_as_roles():
+    cells = _cells(seeds=2, names=("butterworth", "kalman"))
     assert [(c.method, c.seed) for c in cells] == [
-        ("butterworth", 0),
-        ("savitzky_golay", 0),
-        ("butterworth", 1),
-        ("savitzky_golay", 1),
-    ]
+        ("butterworth", 0), ("kalman", 0), ("butterworth", 1), ("kalman", 1),
+    ]  # fmt: skip
     assert cells[0].params == {"order": 6, "cutoff_hz": 25.0}
-    assert "paper, sec. III.C" in cells[0].preset
+    assert cells[0].role.label == "preset (paper)" and cells[1].role.label == "preset (diffbench)"
 
 
-def test_unknown_scenario_or_method_is_an_error():
-    with pytest.raises(ValueError, match="paper-signal"):
-        runner.preset_cells("paper-sig", range(1))
+def test_unknown_task_or_method_is_an_error():
+    with pytest.raises(ValueError, match=r"unknown task 'paper-sig'; available: .*paper-signal"):
+        get_task("paper-sig")
     with pytest.raises(ValueError, match="unknown method 'jacobbi'"):
-        runner.preset_cells("paper-signal", range(1), ["jacobbi"])
+        get_task("paper-signal").lineup(["jacobbi"])
 
 
 def test_same_seed_gives_bit_identical_numbers(tmp_path):
-    first, second = ResultStore(tmp_path / "a.csv"), ResultStore(tmp_path / "b.csv")
+    first, second = Store(tmp_path / "a"), Store(tmp_path / "b")
     runner.run(_cells(), first)
     runner.run(_cells(), second)
-    a, b = first.load(), second.load()
-    np.testing.assert_array_equal(a["value"].to_numpy(), b["value"].to_numpy())
-    assert list(a["cell_key"]) == list(b["cell_key"])
-    # and the stored text reloads to exactly the computed floats
+    np.testing.assert_array_equal(_values(first), _values(second))
     direct = runner.compute_cell(_cells()[0])
-    stored = a[a["cell_key"] == _cells()[0].key]["value"].to_numpy()
-    np.testing.assert_array_equal(stored, [row["value"] for row in direct])
+    frame = Store(tmp_path / "a").cells_frame()
+    stored = frame[(frame["method"] == _cells()[0].method) & (frame["seed"] == 0)]
+    np.testing.assert_array_equal(stored["value"].to_numpy(), [row["value"] for row in direct])
 
 
-def test_different_seeds_give_different_numbers(tmp_path):
-    store = ResultStore(tmp_path / "r.csv")
-    runner.run(_cells(seeds=2, names=("finite_difference",)), store)
-    rows = store.load()
-    rmse = rows[(rows["metric"] == "rmse") & (rows["order"] == 1) & (rows["region"] == "valid")]
-    assert rmse["value"].nunique() == 2
-
-
-def test_rerun_computes_nothing_and_adds_no_rows(tmp_path):
-    store = ResultStore(tmp_path / "r.csv")
-    first = runner.run(_cells(), store)
-    rows = len(store.load())
+def test_rerun_computes_nothing_and_duplicates_are_computed_once(tmp_path):
+    store = Store(tmp_path / "s")
+    first = runner.run(_cells() + _cells(), store)  # every cell asked twice
+    assert (first.total, first.computed) == (6, 6)
     again = runner.run(_cells(), store)
-    assert (first.computed, again.computed, again.skipped) == (6, 0, 6)
-    assert len(store.load()) == rows
+    assert (again.computed, again.skipped) == (0, 6)
+    assert len(Store(tmp_path / "s").cells.records) == 6
 
 
 def test_interrupted_run_keeps_finished_cells_and_resumes_to_the_same_table(tmp_path):
-    reference = ResultStore(tmp_path / "reference.csv")
+    reference = Store(tmp_path / "reference")
     runner.run(_cells(), reference)
-
-    store = ResultStore(tmp_path / "interrupted.csv")
+    store = Store(tmp_path / "interrupted")
 
     def interrupt_after_two(cells, total):
         for index, cell in enumerate(cells):
@@ -82,100 +80,120 @@ def test_interrupted_run_keeps_finished_cells_and_resumes_to_the_same_table(tmp_
 
     with pytest.raises(KeyboardInterrupt):
         runner.run(_cells(), store, progress=interrupt_after_two)
-    assert len(store.completed_keys()) == 2
+    assert len(Store(tmp_path / "interrupted").cells.records) == 2
     summary = runner.run(_cells(), store)
     assert (summary.skipped, summary.computed) == (2, 4)
-    assert tables.rmse_wide(store.load()).equals(tables.rmse_wide(reference.load()))
-    decomposition = tables.DECOMPOSITION_COLUMNS
-    assert tables.wide_table(store.load(), decomposition).equals(
-        tables.wide_table(reference.load(), decomposition)
-    )
-
-
-def test_torn_last_line_and_partial_cell_are_dropped(tmp_path):
-    path = tmp_path / "r.csv"
-    store = ResultStore(path)
-    runner.run(_cells(seeds=1), store)
-    complete = path.read_text()
-    lines = complete.splitlines(keepends=True)
-    # a kill during the write of a third cell: two whole lines of it, then half a line
-    extra = ResultStore(tmp_path / "other.csv")
-    runner.run(_cells(seeds=2)[2:3], extra)
-    third = extra.path.read_text().splitlines(keepends=True)[1:]
-    path.write_text("".join(lines) + "".join(third[:2]) + third[2][:17])
-    repaired = ResultStore(path)
-    assert path.read_text() == complete
-    assert len(repaired.completed_keys()) == 2
-
-
-def test_store_refuses_a_foreign_file(tmp_path):
-    path = tmp_path / "r.csv"
-    path.write_text("a,b\n1,2\n")
-    with pytest.raises(ValueError, match="not a diffbench results file"):
-        ResultStore(path)
-
-
-def test_store_header_is_the_documented_columns(tmp_path):
-    store = ResultStore(tmp_path / "r.csv")
-    assert store.path.read_text().strip() == ",".join(COLUMNS)
-
-
-@pytest.mark.skipif(os.name != "posix", reason="uses SIGKILL")
-def test_killed_process_resumes_to_the_same_table(tmp_path):
-    """A real kill -9 half-way: the same command then completes the run, and the table equals
-    that of an uninterrupted run."""
-    command = [
-        sys.executable,
-        "-m",
-        "diffbench.bench",
-        "run",
-        "paper-signal",
-        "--seeds",
-        "40",
-        "--methods",
-        "finite_difference,savitzky_golay,butterworth",
-        "--no-progress",
-    ]
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    subprocess.run(
-        [*command, "--out", str(tmp_path / "full")], env=env, check=True, capture_output=True
-    )
-    store_path = tmp_path / "killed" / "paper-signal" / "cells.csv"
-    process = subprocess.Popen(
-        [*command, "--out", str(tmp_path / "killed")],
-        env=env,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline:
-        if store_path.exists() and store_path.read_text().count("\n") > 60:
-            break
-        time.sleep(0.005)
-    process.send_signal(signal.SIGKILL)
-    process.wait()
-    assert process.returncode == -signal.SIGKILL
-    stored = len(ResultStore(store_path).completed_keys())
-    assert 0 < stored < 120, "the kill should land mid-run"
-    subprocess.run(
-        [*command, "--out", str(tmp_path / "killed")], env=env, check=True, capture_output=True
-    )
-    full = (tmp_path / "full" / "paper-signal" / "rmse.csv").read_text()
-    resumed = (tmp_path / "killed" / "paper-signal" / "rmse.csv").read_text()
-    assert resumed == full
+    for columns in (tables.RMSE_COLUMNS, tables.DECOMPOSITION_COLUMNS):
+        a = tables.wide_table(store.cells_frame(), columns)
+        b = tables.wide_table(reference.cells_frame(), columns)
+        assert a.equals(b)
 
 
 def test_two_jobs_store_the_same_numbers_as_a_serial_run(tmp_path):
-    serial, parallel = ResultStore(tmp_path / "s.csv"), ResultStore(tmp_path / "p.csv")
+    serial, parallel = Store(tmp_path / "s"), Store(tmp_path / "p")
     cells = _cells(seeds=3, names=("finite_difference", "jacobi", "kalman"))
     runner.run(cells, serial)
     summary = runner.run(cells, parallel, jobs=2)
     assert summary.computed == 9
-    a, b = serial.load(), parallel.load()
-    assert list(a["cell_key"]) == list(b["cell_key"])
-    np.testing.assert_array_equal(a["value"].to_numpy(), b["value"].to_numpy())
+    np.testing.assert_array_equal(_values(serial), _values(parallel))
 
 
 def test_jobs_must_be_a_positive_integer(tmp_path):
     with pytest.raises(ValueError, match="`jobs` must be an integer >= 1, got 0"):
-        runner.run(_cells(), ResultStore(tmp_path / "r.csv"), jobs=0)
+        runner.run(_cells(), Store(tmp_path / "s"), jobs=0)
+
+
+@pytest.mark.parametrize("task", ["paper-signal-clean", "jacobi-influence", "robot-sim-short"])
+def test_every_kind_of_task_runs_and_reports(task, tmp_path):
+    """Signal, variant (table I) and simulated-robot tasks through the one interface (the real
+    robot's is in test_identification.py)."""
+    from diffbench.bench.cli import main
+
+    names = "jacobi" if task == "jacobi-influence" else "butterworth,jacobi"
+    assert main(["run", task, "--seeds", "2", "--methods", names, "--out", str(tmp_path),
+                 "--no-progress"]) == 0  # fmt: skip
+    written = sorted(p.name for p in (tmp_path / task).iterdir())
+    expected = {"paper-signal-clean": "rmse.md", "jacobi-influence": "table1.md",
+                "robot-sim-short": "table2.md"}[task]  # fmt: skip
+    assert expected in written
+    assert all(get_task(name).name == name for name in available_tasks())
+
+
+def _children(pid: int) -> list[int]:
+    found = []
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        text = (task / "children").read_text().split()
+        found += [int(child) for child in text]
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except FileNotFoundError:
+        return False
+    return "State:\tZ" not in status
+
+
+def _wait_for_cells(path: Path, count: int, process) -> None:
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        if path.exists() and path.read_text().count('"record":"cell"') >= count:
+            return
+        if process.poll() is not None:
+            raise AssertionError("the run ended before it could be interrupted")
+        time.sleep(0.02)
+    raise AssertionError("no cells stored in time")
+
+
+RUN = ["run", "paper-signal", "--seeds", "30", "--methods",
+       "finite_difference,savitzky_golay,butterworth", "--no-progress"]  # fmt: skip
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="reads /proc (Linux)")
+@pytest.mark.parametrize("stop", [signal.SIGTERM, signal.SIGKILL])
+def test_stopping_a_jobs_run_leaves_no_worker_and_the_rerun_completes(tmp_path, stop):
+    """SIGTERM (exit 143) or SIGKILL of `run --jobs 2` mid-run: no worker process survives,
+    every finished cell is kept, and the same command completes the run to the table of an
+    uninterrupted one."""
+    out = tmp_path / "killed"
+    process = subprocess.Popen([*CLI, *RUN, "--jobs", "2", "--out", str(out)], env=ENV,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)  # fmt: skip
+    _wait_for_cells(out / "store" / "cells.jsonl", 4, process)
+    workers = _children(process.pid)
+    assert len(workers) >= 2
+    process.send_signal(stop)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == (143 if stop == signal.SIGTERM else -signal.SIGKILL)
+    if stop == signal.SIGTERM:
+        assert b"run the same command to resume" in err
+    deadline = time.monotonic() + 10
+    while any(_alive(pid) for pid in workers) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not [pid for pid in workers if _alive(pid)], "orphaned workers"
+    stored = len(Store(out / "store").cells.records)
+    assert 0 < stored < 90, "the stop should land mid-run"
+    from diffbench.bench.cli import main
+
+    assert main([*RUN, "--out", str(out)]) == 0
+    assert main([*RUN, "--out", str(tmp_path / "full")]) == 0
+    full = (tmp_path / "full" / "paper-signal" / "rmse.csv").read_text()
+    assert (out / "paper-signal" / "rmse.csv").read_text() == full
+
+
+def test_two_concurrent_runs_on_one_store_store_each_cell_once(tmp_path):
+    """Two `diffbench run` processes on the same --out at once: every cell once, tables that
+    count the seeds right, no error."""
+    command = [*CLI, "run", "paper-signal", "--seeds", "10", "--methods",
+               "finite_difference,savitzky_golay,butterworth", "--no-progress", "--out",
+               str(tmp_path)]  # fmt: skip
+    runs = [subprocess.Popen(command, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True) for _ in range(2)]  # fmt: skip
+    outputs = [run.communicate(timeout=300) for run in runs]
+    assert [run.returncode for run in runs] == [0, 0], outputs
+    lines = (tmp_path / "store" / "cells.jsonl").read_text().splitlines()
+    keys = [json.loads(line)["key"] for line in lines if '"record":"cell"' in line]
+    assert len(keys) == len(set(keys)) == 30
+    table = (tmp_path / "paper-signal" / "rmse.csv").read_text()
+    assert table.count("\n") == 4 and all(",10\n" in row + "\n" for row in
+                                          table.splitlines()[1:])  # fmt: skip

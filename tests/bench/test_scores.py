@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+
 from diffbench.bench.scores import error_metrics, score_estimate
 from diffbench.methods import Estimate
 

@@ -4,6 +4,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
+
 from diffbench import methods, signals
 from diffbench.bench import tuning
 from diffbench.bench.cli import main
@@ -142,14 +143,16 @@ def test_bad_tuning_requests():
 
 
 def test_tune_cli_tunes_on_one_seed_and_scores_on_others(tmp_path, capsys):
-    args = ["tune", "savitzky_golay", "paper-signal", "--oracle", "--order", "1", "--seeds",
-            "3", "--out", str(tmp_path), "--no-progress"]  # fmt: skip
+    args = ["tune", "savitzky_golay", "paper-signal", "--criteria", "oracle", "--orders", "1",
+            "--seeds", "3", "--out", str(tmp_path), "--no-progress"]  # fmt: skip
     assert main(args) == 0
-    from diffbench.bench.store import ResultStore
+    from diffbench.bench.store import Store
 
-    rows = ResultStore(tmp_path / "paper-signal" / "cells.csv").load()
+    rows = Store(tmp_path / "store").cells_frame("paper-signal")
     assert set(rows["seed"]) == {0, 1, 2}  # the tuning seed 10000 is never scored
-    assert rows["preset"].str.startswith("tuned: oracle for ẋ on seed 10000").all()
+    assert (rows["origin"] == "tuned").all() and (rows["criterion"] == "oracle").all()
+    assert (rows["tuned_order"] == 1).all() and (rows["tuning_seed"] == 10_000).all()
     assert (tmp_path / "paper-signal" / "tuning.md").exists()
+    assert "oracle-tuned for ẋ" in (tmp_path / "paper-signal" / "rmse.md").read_text()
     assert main([*args, "--tuning-seed", "1"]) == 2
     assert "is among the scored seeds" in capsys.readouterr().err

@@ -5,6 +5,10 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from numpy.polynomial import Polynomial as NumpyPolynomial
+
 from diffbench import signals
 from diffbench.signals import (
     Chirp,
@@ -19,9 +23,6 @@ from diffbench.signals import (
     register_signal,
     signal_class,
 )
-from hypothesis import given
-from hypothesis import strategies as st
-from numpy.polynomial import Polynomial as NumpyPolynomial
 
 BUILTIN = ["chirp", "damped_oscillation", "paper_sines", "polynomial"]
 

@@ -11,6 +11,8 @@ from importlib.resources import files
 
 import numpy as np
 import pytest
+from scipy.signal import butter, sosfiltfilt
+
 from diffbench.signals.dfki import (
     DFKI_RUNS,
     PENDULUM_PARAMETER_NAMES,
@@ -23,7 +25,6 @@ from diffbench.signals.dfki import (
     pendulum_regressor,
     resample_uniform,
 )
-from scipy.signal import butter, sosfiltfilt
 
 DATA = files("diffbench.signals") / "data" / "dfki_double_pendulum"
 RAW_ROWS = (4993, 4974, 4979, 4993, 4999, 4997)  # data rows of trajectory_00..05.csv

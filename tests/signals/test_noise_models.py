@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 import pytest
+
 from diffbench.signals import Gaussian, NoiseStack, Poisson, Quantisation, Sinusoid
 
 N = 200_000

@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 import pytest
+
 from diffbench.signals import robot2r
 
 L = robot2r.LINK1_LENGTH_M
