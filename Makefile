@@ -15,15 +15,17 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	touch $(STAMP)
 
+# Every step resumes from the store (results/store/): a second `make bench` recomputes and
+# re-tunes nothing, and only rewrites the reports (and the timing table).
 bench: $(STAMP)
 	$(BIN)/diffbench run paper-signal --seeds $(SEEDS) --out results
-	for criterion in oracle no-truth pynumdiff; do for order in 1 2; do \
-	  $(BIN)/diffbench tune all paper-signal --$$criterion --order $$order --seeds $(SEEDS) \
-	    --out results --no-progress || exit 1; done; done
-	$(BIN)/diffbench paper-figures --seeds $(SEEDS) --out results
-	$(BIN)/diffbench identify sim --seeds $(SEEDS) --out results
-	$(BIN)/diffbench identify dfki --out results
-	$(BIN)/diffbench grid --seeds 10 --jobs 2 --out results --no-progress
+	$(BIN)/diffbench tune all paper-signal --criteria oracle,no-truth,pynumdiff --orders 1,2 \
+	  --seeds $(SEEDS) --jobs 2 --out results
+	$(BIN)/diffbench run jacobi-influence --seeds $(SEEDS) --out results
+	$(BIN)/diffbench paper-figures --out results
+	$(BIN)/diffbench run robot-sim --seeds $(SEEDS) --jobs 2 --out results
+	$(BIN)/diffbench run dfki-cv --jobs 2 --out results
+	$(BIN)/diffbench grid --seeds 10 --jobs 2 --out results
 	$(BIN)/diffbench timing --out results
 
 lint: $(STAMP)

@@ -224,11 +224,6 @@ def write_report(
     ]
 
 
-def csv_view(wide: pd.DataFrame) -> pd.DataFrame:
-    """The CSV side of a wide table: entry, role columns, then every statistic."""
-    return wide
-
-
 def legend(rows: pd.DataFrame, extra: str = "") -> str:
     """One short legend: what each setting in these rows means (presets with their source)."""
     from diffbench.bench.roles import CRITERION_LEGEND, CRITERION_NAMES
@@ -237,17 +232,11 @@ def legend(rows: pd.DataFrame, extra: str = "") -> str:
     table = entries(rows)
     presets = table[table["origin"] == "preset"]
     if len(presets):
-        sources = []
-        for _, row in presets.drop_duplicates("method").iterrows():
-            try:
-                spec = methods.preset_spec(row["method"], row["preset"])
-                sources.append(f"{row['method']}: {spec.source}")
-            except ValueError:
-                sources.append(f"{row['method']}: preset {row['preset']}")
-        key = presets["preset"].iloc[0]
+        keys = ", ".join(f"`{key}`" for key in sorted(set(presets["preset"])))
         lines.append(
-            f"- **preset**: each method's `{key}` preset, by the paper or by diffbench "
-            f"(sources: `diffbench list`)."
+            f"- **preset (paper)**: the seed paper's setting; **preset (diffbench)**: "
+            f"ours where the paper has none (the methods' {keys} presets; sources: "
+            "`diffbench list`)."
         )
     for criterion in sorted({c for c in table["criterion"] if c}):
         seeds = sorted({int(s) for s in table[table["criterion"] == criterion]["tuning_seed"]})
