@@ -304,25 +304,27 @@ def write_figure3(directory: Path) -> list[Path]:
 
 
 def write_frequency_table(directory: Path) -> list[Path]:
-    table = frequency_table()
-    csv, markdown = directory / "frequency.csv", directory / "frequency.md"
-    table.to_csv(csv, index=False)
+    """``frequency.md`` / ``.csv``: cutoff, white-noise gain and gain at 15 Hz per linear
+    method at its paper-signal preset (the Markdown from what the CSV holds)."""
+    from diffbench.bench import tables
+
+    csv = tables.write_csv(directory / "frequency.csv", frequency_table())
     stored = pd.read_csv(csv)
-    lines = [
-        "# Frequency-domain scores at the paper-signal presets (Ts = 1 ms)", "",
-        "cutoff: lowest frequency where |H/(i2πf)ⁿ| falls to -3 dB; noise gain: output variance"
-        " per unit input variance of white noise; |H| at 15 Hz vs the ideal (i2π·15)ⁿ.", "",
-        "| method | n | cutoff (Hz) | noise gain | |H| at 15 Hz (dB) | ideal (dB) |",
-        "|---|---|---|---|---|---|",
-    ]  # fmt: skip
-    for _, row in stored.iterrows():
-        lines.append(
-            f"| {row['method']} | {row['order']} | {row['cutoff_hz']:.2f} | "
-            f"{row['noise_gain']:.4g} | {row['gain_db_at_15_hz']:.3f} | "
-            f"{row['ideal_db_at_15_hz']:.3f} |"
-        )
-    markdown.write_text("\n".join([*lines, ""]), encoding="utf-8")
-    return [csv, markdown]
+    shown = pd.DataFrame({
+        "method": stored["method"], "n": stored["order"].astype(str),
+        "cutoff (Hz)": [f"{v:.2f}" for v in stored["cutoff_hz"]],
+        "noise gain": [f"{v:.4g}" for v in stored["noise_gain"]],
+        "gain at 15 Hz (dB)": [f"{v:.3f}" for v in stored["gain_db_at_15_hz"]],
+        "ideal (dB)": [f"{v:.3f}" for v in stored["ideal_db_at_15_hz"]],
+    })  # fmt: skip
+    text = (
+        "# Frequency-domain scores at the paper-signal presets (Ts = 1 ms)\n\n"
+        f"{tables.markdown_table(shown)}\n\n"
+        "cutoff: lowest frequency where |H/(i2πf)ⁿ| falls to -3 dB; noise gain: output variance "
+        "per unit input variance of white noise; gain at 15 Hz: 20 log10 |H(15 Hz)| against the "
+        "ideal |(i2π·15)ⁿ|.\n"
+    )
+    return [csv, tables.write_text(directory / "frequency.md", text)]
 
 
 def figure5_data(scenario_name: str = "robot-sim", seed: int = 0) -> pd.DataFrame:
