@@ -230,7 +230,7 @@ def _cmd_list(args) -> None:
             )
         for key, chosen in cls.presets.items():
             values = ", ".join(f"{k}={v!r}" for k, v in chosen.values.items())
-            print(f"      preset {key} ({chosen.label}): {values}  ({chosen.source})")
+            print(f"      preset {key} (by {chosen.by}): {values}  ({chosen.source})")
     print("tasks (diffbench run TASK)")
     for name in available_tasks(listed_only=True):
         task = get_task(name)

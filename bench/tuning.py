@@ -19,8 +19,9 @@ Two criteria:
 
 The search is scipy's differential evolution over the declared tuning ranges (log scale where
 declared), integer and choice parameters through its ``integrality`` option, seeded, so a
-tuning is reproducible. Windows (``*window_s``) are snapped to whole even numbers of steps and
-frequencies (``*_hz``) kept below 0.45/Δt, so a method registered later needs nothing extra.
+tuning is reproducible. Windows (parameters declared ``kind="window"``) are snapped to whole
+even numbers of steps and frequencies (``kind="frequency"``) kept below 0.45/Δt, so a method
+registered later needs nothing extra.
 """
 
 from __future__ import annotations
@@ -80,9 +81,9 @@ def search_space(name: str, dt: float, n_samples: int) -> list[Dimension]:
         if spec.tune_low is None:
             continue
         low, high = float(spec.tune_low), float(spec.tune_high)
-        if spec.name.endswith("_hz"):
+        if spec.kind == "frequency":
             high = min(high, 0.45 / dt)
-        if spec.name.endswith("window_s"):
+        if spec.kind == "window":
             low = max(low, 4 * dt)
             high = min(high, dt * (n_samples // 3))
         if low >= high:
@@ -95,11 +96,13 @@ def search_space(name: str, dt: float, n_samples: int) -> list[Dimension]:
     return dimensions
 
 
-def snap(params: dict[str, Any], dt: float) -> dict[str, Any]:
-    """Windows to whole even numbers of steps (odd sample counts), at least 2 steps."""
+def snap(params: dict[str, Any], dt: float, specs) -> dict[str, Any]:
+    """Windows (parameters declared ``kind="window"``) to whole even numbers of steps (odd
+    sample counts), at least 2 steps. ``specs``: the method's parameter specifications."""
+    windows = {spec.name for spec in specs if spec.kind == "window"}
     snapped = dict(params)
     for key, value in params.items():
-        if key.endswith("window_s"):
+        if key in windows:
             snapped[key] = 2 * max(1, round(value / (2 * dt))) * dt
     return snapped
 
@@ -246,7 +249,7 @@ def tune(
         # windows snapped to the step
         params = {**defaults, **{d.name: d.value(v) for d, v in zip(dimensions, vector,
                                                                       strict=True)}}  # fmt: skip
-        return snap(params, dt)
+        return snap(params, dt, methods.params_of(cls))
 
     def loss(vector) -> float:
         params = params_of(vector)

@@ -16,6 +16,7 @@ from diffbench.methods import butterworth, finite_difference, jacobi, kalman, sa
 from diffbench.methods._fir import central_mask
 from diffbench.methods._registry import (
     DEFAULT_PRESET,
+    PARAM_KINDS,
     Estimate,
     FirMethod,
     Method,
@@ -30,11 +31,18 @@ from diffbench.methods._registry import (
     preset_spec,
     register,
 )
-from diffbench.methods._validation import MAX_ORDER, check_signal, uniform_step
+from diffbench.methods._validation import (
+    MAX_ORDER,
+    MAX_WINDOW_STEPS,
+    check_signal,
+    uniform_step,
+)
 
 __all__ = [
     "DEFAULT_PRESET",
     "MAX_ORDER",
+    "MAX_WINDOW_STEPS",
+    "PARAM_KINDS",
     "Estimate",
     "FirMethod",
     "Method",

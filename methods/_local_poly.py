@@ -14,9 +14,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.polynomial import legendre
+
 from diffbench.methods._fir import apply_central_fir
 from diffbench.methods._validation import samples_in_span
-from numpy.polynomial import legendre
 
 
 def local_polynomial_weights(
@@ -42,20 +43,34 @@ def local_polynomial_weights(
         raise ValueError(f"`half_width` must be >= 1, got {half_width}")
     if not 0 <= degree <= 2 * half_width:
         raise ValueError(f"`degree` must be in [0, {2 * half_width}], got {degree}")
+    q, r, root_w = _weighted_fit(half_width, degree, sample_weights)
+    at_u = np.atleast_1d(np.asarray(at, dtype=np.float64)) / half_width
+    # p(u) = basis(u) c, with c = R^{-1} Q^T sqrt(w) x; du/dt = 1/(m dt).
+    weights = _evaluation(r, at_u, degree, order) @ q.T * root_w[np.newaxis, :]
+    return weights / (half_width * dt) ** order
+
+
+def _weighted_fit(half_width: int, degree: int, sample_weights: np.ndarray | None):
+    """QR factors of the sqrt-weighted Legendre Vandermonde matrix on the offsets scaled to
+    [-1, 1], and the sqrt of the sample weights: the fit's coefficients are
+    R^{-1} Q^T (sqrt(w) x)."""
     offsets = np.arange(-half_width, half_width + 1) / half_width  # u in [-1, 1]
     basis = legendre.legvander(offsets, degree)
     root_w = np.ones_like(offsets) if sample_weights is None else np.sqrt(sample_weights)
     q, r = np.linalg.qr(basis * root_w[:, np.newaxis])
+    return q, r, root_w
+
+
+def _evaluation(r: np.ndarray, at_u: np.ndarray, degree: int, order: int) -> np.ndarray:
+    """Rows mapping Q^T (sqrt(w) x) to the ``order``-th derivative (in u) of the fitted
+    polynomial at each of ``at_u``: shape ``(len(at_u), degree + 1)``."""
     # Row k: d^n/du^n of the Legendre polynomial P_k at each evaluation point.
-    at_u = np.atleast_1d(np.asarray(at, dtype=np.float64)) / half_width
     derivative_rows = np.empty((at_u.size, degree + 1))
     for k in range(degree + 1):
         unit = np.zeros(degree + 1)
         unit[k] = 1.0
         derivative_rows[:, k] = legendre.legval(at_u, legendre.legder(unit, order))
-    # p(u) = basis(u) c, with c = R^{-1} Q^T sqrt(w) x; du/dt = 1/(m dt).
-    weights = np.linalg.solve(r.T, derivative_rows.T).T @ q.T * root_w[np.newaxis, :]
-    return weights / (half_width * dt) ** order
+    return np.linalg.solve(r.T, derivative_rows.T).T
 
 
 def savitzky_golay_filter(
@@ -74,12 +89,16 @@ def savitzky_golay_filter(
         return np.zeros_like(x)
     central = local_polynomial_weights(m, degree, order, np.array([0.0]), dt)[0]
     y, _ = apply_central_fir(x, central)
-    edge = local_polynomial_weights(m, degree, order, np.arange(-m, 0, dtype=float), dt)
+    # The ends evaluate the polynomial fitted to the first/last full window at offsets -m..-1
+    # (1..m): fit once per end, then evaluate, never forming the m x (2m+1) weight matrix
+    # (gigabytes for windows of tens of thousands of samples).
+    q, r, _ = _weighted_fit(m, degree, None)
+    edge = _evaluation(r, np.arange(-m, 0) / m, degree, order) / (m * dt) ** order
     flat = x.reshape(n, -1)
     out = y.reshape(n, -1)
-    out[:m] = edge @ flat[:window]
-    # The right end mirrors the left: offsets 1..m, weights reversed and signed by (-1)^n.
-    out[n - m :] = (math.pow(-1, order) * edge[::-1, ::-1]) @ flat[n - window :]
+    out[:m] = edge @ (q.T @ flat[:window])
+    # The right end mirrors the left: the window reversed, offsets 1..m, signed by (-1)^n.
+    out[n - m :] = math.pow(-1, order) * (edge @ (q.T @ flat[n - window :][::-1]))[::-1]
     return y
 
 

@@ -1,7 +1,8 @@
 """The method registry: a method is one frozen dataclass registered by name with a decorator.
 
 Each hyperparameter is a dataclass field declared with :func:`param`, which records its
-admissible range (checked on construction), its tuning range and scale, and a description.
+admissible range (checked on construction), its tuning range and scale, what kind of quantity
+it is (a window length in seconds, a frequency in Hz, or neither) and a description.
 Presets (the paper's settings, or ours where the paper has none) are declared on the class.
 """
 
@@ -14,10 +15,15 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
+
 from diffbench.methods._fir import apply_central_fir, fir_response
 from diffbench.methods._validation import check_dt, check_orders, check_signal
 
 _REGISTRY: dict[str, type[Method]] = {}
+
+PARAM_KINDS = (None, "window", "frequency")
+"""What a parameter may declare itself to be (``Param.kind``): nothing in particular, a window
+length in seconds, or a frequency in Hz."""
 
 
 @dataclass(frozen=True)
@@ -26,6 +32,11 @@ class Param:
 
     ``low``/``high`` bound the admissible values (open or closed ends); ``tune_low`` and
     ``tune_high`` bound the range a tuner searches, on a log scale when ``log`` is true.
+    ``kind`` says what the value means, so that no caller guesses it from the name:
+    ``"window"`` for a window length in seconds (a whole, even number of sampling steps),
+    ``"frequency"`` for a frequency in Hz (below Nyquist), ``None`` otherwise (one of
+    :data:`PARAM_KINDS`, checked at registration). Limits that depend on the sampling step are
+    checked by the method's ``check_step(dt)``, not here.
     """
 
     name: str
@@ -40,6 +51,7 @@ class Param:
     tune_high: float | None = None
     log: bool = False
     doc: str = ""
+    kind: str | None = None
 
     def describe_range(self) -> str:
         """The admissible range as text, e.g. ``(0, inf)`` or ``{2, 4, 6}``."""
@@ -151,8 +163,10 @@ class Method:
 
     Subclasses are frozen dataclasses whose fields are declared with :func:`param`; they
     implement ``_estimate(x, dt, orders) -> (values, valid)`` and may override
-    ``min_samples(dt)`` (shortest signal they accept), ``check_step(dt)`` (checks that depend on
-    the sampling step) and ``exact_degree(order)`` (polynomial degree reproduced exactly).
+    ``min_samples(dt)`` (shortest signal they accept; called first, so it must refuse by name
+    whatever it cannot compute), ``check_step(dt)`` (checks that depend on the sampling step,
+    also run by :meth:`frequency_response`) and ``exact_degree(order)`` (polynomial degree
+    reproduced exactly).
     """
 
     name: ClassVar[str] = ""
@@ -169,8 +183,9 @@ class Method:
         """Estimate the derivatives of ``orders`` of samples ``x`` taken every ``dt`` seconds."""
         orders = check_orders(orders)
         dt = check_dt(dt)
-        self.check_step(dt)
+        # the signal's length first: it is cheap, and check_step may build taps
         x, dt = check_signal(x, dt, min_samples=self.min_samples(dt))
+        self.check_step(dt)
         values, valid = self._estimate(x, dt, orders)
         return Estimate(values=values, valid=valid)
 
@@ -242,7 +257,8 @@ def register(name: str):
     """Class decorator registering a method under ``name``.
 
     The class is made a frozen dataclass; a duplicate name, a parameter not declared with
-    :func:`param`, or a preset naming an unknown parameter or an out-of-range value is an error.
+    :func:`param`, a parameter ``kind`` not in :data:`PARAM_KINDS`, or a preset naming an
+    unknown parameter or an out-of-range value is an error.
     """
 
     def decorate(cls: type[Method]) -> type[Method]:
@@ -252,6 +268,13 @@ def register(name: str):
             raise TypeError(f"{cls.__name__} must subclass methods.Method")
         cls = dataclass(frozen=True)(cls)
         specs = {spec.name: spec for spec in params_of(cls)}
+        for spec in specs.values():
+            if spec.kind not in PARAM_KINDS:
+                kinds = ", ".join(repr(kind) for kind in PARAM_KINDS)
+                raise ValueError(
+                    f"{name}: parameter `{spec.name}` has kind {spec.kind!r}; "
+                    f"it must be one of {kinds}"
+                )
         for key, preset in cls.presets.items():
             unknown = set(preset.values) - set(specs)
             if unknown:

@@ -10,6 +10,11 @@ import numpy as np
 
 MAX_ORDER = 2
 
+MAX_WINDOW_STEPS = 100_000
+"""Longest window any method accepts, in sampling steps (100 s at dt = 1 ms). Taps cost time
+and memory in proportion to the window (measured at this length, q = 40: 0.4 s for the Jacobi
+trapezoid rule, a few seconds for its linear rule); 1e300 s used to overflow."""
+
 
 def check_dt(dt: float) -> float:
     """Return ``dt`` as a float, or raise ``ValueError`` if it is not a finite number > 0."""
@@ -77,9 +82,16 @@ def samples_in_span(name: str, span_s: float, dt: float, *, odd: bool = False) -
 
     A span of ``k`` intervals covers ``k + 1`` samples (node convention: the outer samples lie
     on the ends of the window). With ``odd=True`` the sample count must be odd (``k`` even), as
-    a central window needs. ``span_s / dt`` is accepted as whole within 1e-9 relative.
+    a central window needs. ``span_s / dt`` is accepted as whole within 1e-9 relative. At most
+    :data:`MAX_WINDOW_STEPS` intervals.
     """
     ratio = span_s / dt
+    if ratio > MAX_WINDOW_STEPS + 0.5:
+        raise ValueError(
+            f"`{name}` must be in (0, {MAX_WINDOW_STEPS * dt:.6g}] s at dt={dt!r} s (at most "
+            f"{MAX_WINDOW_STEPS} sampling steps: the taps cost time and memory in proportion), "
+            f"got {span_s!r}"
+        )
     intervals = round(ratio)
     if intervals < 1 or abs(ratio - intervals) > 1e-9 * max(1.0, abs(ratio)):
         raise ValueError(

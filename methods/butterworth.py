@@ -6,10 +6,23 @@ from __future__ import annotations
 import functools
 
 import numpy as np
+from scipy import signal as sps
+
 from diffbench.methods._fir import apply_central_fir, fir_response
 from diffbench.methods._registry import Method, Preset, param, register
 from diffbench.methods.finite_difference import central_difference_weights
-from scipy import signal as sps
+
+MIN_CUTOFF_FRACTION = 1e-3
+"""Lowest ``cutoff_hz`` as a fraction of the Nyquist frequency. Below it, rounding in the
+second-order sections grows like 1e-16/w² (w the cutoff over Nyquist): measured over orders
+1-20, the gain at 0 Hz and a filtered constant are off by up to 3e-10 at w = 1e-3, 1e-9 at
+3e-4, 1e-5 to 4e-1 at 1e-6, and at 1e-9 ``sosfiltfilt`` raises a singular-matrix error."""
+
+
+MAX_CUTOFF_FRACTION = 1 - 1e-9
+"""Highest ``cutoff_hz`` as a fraction of the Nyquist frequency: the design prewarps the
+cutoff to tan(pi w / 2), and order 20 overflows (OverflowError in scipy's lp2lp_zpk) within
+about 1e-15 of Nyquist; up to 1 - 1e-9 every order works."""
 
 
 @functools.lru_cache(maxsize=256)
@@ -39,8 +52,11 @@ class ButterworthEuler(Method):
     ----------
     order : int in [1, 20]
         Order of the forward filter.
-    cutoff_hz : float in (0, fs/2)
-        Cutoff frequency (-3 dB of the forward pass) in Hz; must be below Nyquist.
+    cutoff_hz : float in [1e-3 fs/2, (1 - 1e-9) fs/2]
+        Cutoff frequency (-3 dB of the forward pass) in Hz; below Nyquist, and at least 1e-3
+        of it (lower cutoffs lose the unit gain at 0 Hz to rounding: see
+        ``MIN_CUTOFF_FRACTION`` and ``MAX_CUTOFF_FRACTION``). Checked against the step by
+        ``check_step``.
 
     References
     ----------
@@ -59,7 +75,8 @@ class ButterworthEuler(Method):
         tune_low=0.5,
         tune_high=200.0,
         log=True,
-        doc="cutoff frequency of the forward filter, Hz (< Nyquist)",
+        doc="cutoff frequency of the forward filter, Hz (in [1e-3, 1) x Nyquist)",
+        kind="frequency",
     )
 
     presets = {
@@ -73,16 +90,26 @@ class ButterworthEuler(Method):
 
     def check_step(self, dt: float) -> None:
         nyquist = 0.5 / dt
-        if self.cutoff_hz >= nyquist:
+        lowest, highest = MIN_CUTOFF_FRACTION * nyquist, MAX_CUTOFF_FRACTION * nyquist
+        allowed = f"[{lowest:g}, {highest:.10g}] Hz"
+        if self.cutoff_hz > highest:
             raise ValueError(
                 f"`cutoff_hz` must be below the Nyquist frequency {nyquist:g} Hz for "
-                f"dt={dt!r} s, got {self.cutoff_hz!r}"
+                f"dt={dt!r} s, i.e. in {allowed} (within 1e-9 of Nyquist the design "
+                f"overflows), got {self.cutoff_hz!r}"
+            )
+        if self.cutoff_hz < lowest:
+            raise ValueError(
+                f"`cutoff_hz` must be in {allowed} at dt={dt!r} s (below {MIN_CUTOFF_FRACTION:g} "
+                f"of the Nyquist frequency the filter's sections lose their unit gain at 0 Hz "
+                f"to rounding, and from 1e-9 of it the filter fails), got {self.cutoff_hz!r}"
             )
 
     def _sos(self, dt: float) -> np.ndarray:
         return _butter_sos(self.order, self.cutoff_hz, float(dt)).copy()  # scipy wants it writable
 
     def min_samples(self, dt: float) -> int:
+        self.check_step(dt)  # the design below needs an admissible cutoff
         # sosfiltfilt's default padding needs more samples than its pad length.
         sos = self._sos(dt)
         zeros = min(int(np.sum(sos[:, 2] == 0)), int(np.sum(sos[:, 5] == 0)))

@@ -5,6 +5,7 @@ from __future__ import annotations
 from math import factorial, inf
 
 import numpy as np
+
 from diffbench.methods._registry import FirMethod, Preset, param, register
 
 

@@ -2,9 +2,25 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
 from diffbench.methods._registry import FirMethod, Preset, param, register
-from diffbench.methods.jacobi_kernel import RULES, fir_weights, half_width
+from diffbench.methods._validation import MAX_WINDOW_STEPS
+from diffbench.methods.jacobi_kernel import (
+    MAX_AMPLIFICATION,
+    MAX_EXPONENT,
+    MIN_EXPONENT,
+    RULE_TOLERANCE,
+    RULES,
+    SEARCH_HALF_WIDTH,
+    amplification,
+    discretisation_error,
+    fir_weights,
+    half_width,
+    shortest_half_width,
+)
 
 
 @register("jacobi")
@@ -24,13 +40,22 @@ class Jacobi(FirMethod):
     ``least_squares`` rule; the ``trapezoid`` and ``linear`` rules approximate the continuous
     filter (O(Ts²) for ``linear``; far better for ``trapezoid`` when min(κ, μ) ≥ 2).
 
+    Limits, measured (see :mod:`methods.jacobi_kernel`): κ, μ in [-0.999, 400] (beyond 400
+    the kernel overflows; nearer -1 the quadratures lose accuracy, NaN from -1 + 1e-13); the
+    design may not amplify rounding by more than 1e8 (lopsided weights with long series, e.g.
+    κ = 0, μ = 100, q = 12, reach 1e14: refused on construction, with the range of μ or q that
+    works); and at a given step each window must hold enough samples for its rule to
+    differentiate the polynomials of degree n+q as the continuous kernel does
+    (``least_squares`` to 1e-6, the others to 1 %; refused by ``check_step`` with the shortest
+    window that works).
+
     Parameters
     ----------
-    kappa : float > -1
+    kappa : float in [-0.999, 400]
         Exponent of (1 + τ): weights the past end of the window.
-    mu : float > -1
+    mu : float in [-0.999, 400]
         Exponent of (1 − τ): weights the future end.
-    q : int >= 0
+    q : int in [0, 40]
         Truncation order of the Jacobi series (odd q with κ = μ equals q − 1).
     window_s : float > 0
         Window T for orders 0 and 1, seconds.
@@ -48,16 +73,16 @@ class Jacobi(FirMethod):
 
     kappa: float = param(
         12.0,
-        low=-1.0,
-        low_open=True,
+        low=MIN_EXPONENT,
+        high=MAX_EXPONENT,
         tune_low=-0.5,
         tune_high=30.0,
         doc="weight exponent at the past end (1+tau)^kappa",
     )
     mu: float = param(
         12.0,
-        low=-1.0,
-        low_open=True,
+        low=MIN_EXPONENT,
+        high=MAX_EXPONENT,
         tune_low=-0.5,
         tune_high=30.0,
         doc="weight exponent at the future end (1-tau)^mu",
@@ -79,6 +104,7 @@ class Jacobi(FirMethod):
         tune_high=2.0,
         log=True,
         doc="window T = 2M*dt for orders 0 and 1, seconds",
+        kind="window",
     )
     accel_window_s: float = param(
         0.21,
@@ -88,6 +114,7 @@ class Jacobi(FirMethod):
         tune_high=2.0,
         log=True,
         doc="window T = 2M*dt for order 2, seconds",
+        kind="window",
     )
     rule: str = param(
         "trapezoid", choices=RULES, doc="discretisation of the integral (linear: any kappa, mu)"
@@ -128,6 +155,43 @@ class Jacobi(FirMethod):
                 f"`rule`={self.rule!r} needs kappa, mu >= 0 (the weight is infinite at a "
                 f"window end for kappa={self.kappa!r}, mu={self.mu!r}); use rule='linear'"
             )
+        self._check_amplification()
+
+    def _worst_amplification(self, kappa: float, mu: float, q: int) -> tuple[float, int]:
+        return max((amplification(order, kappa, mu, q), order) for order in (0, 1, 2))
+
+    def _check_amplification(self) -> None:
+        """Refuse a design that multiplies rounding by more than ``MAX_AMPLIFICATION``, naming
+        the range of the larger exponent (and of ``q``) that works with the others fixed."""
+        worst, order = self._worst_amplification(self.kappa, self.mu, self.q)
+        if worst <= MAX_AMPLIFICATION:
+            return
+        name, other_name = ("mu", "kappa") if self.mu >= self.kappa else ("kappa", "mu")
+        value, other = getattr(self, name), getattr(self, other_name)
+
+        def works(candidate: float) -> bool:
+            pair = {name: candidate, other_name: other}
+            return self._worst_amplification(pair["kappa"], pair["mu"], self.q)[0] <= (
+                MAX_AMPLIFICATION
+            )
+
+        floor = MIN_EXPONENT if self.rule == "linear" else 0.0
+        low, high = _edge(works, inside=other, outside=floor), _edge(works, other, value)
+        lower_q = next(
+            (
+                candidate
+                for candidate in range(self.q - 1, -1, -1)
+                if self._worst_amplification(self.kappa, self.mu, candidate)[0] <= MAX_AMPLIFICATION
+            ),
+            None,
+        )
+        or_q = "" if lower_q is None else f"; or lower `q` to at most {lower_q}"
+        raise ValueError(
+            f"`{name}` must be in [{low:g}, {high:g}] with {other_name}={other!r} and "
+            f"q={self.q} (the weight is so lopsided that the order-{order} kernel multiplies "
+            f"rounding and noise by {worst:.3g}, more than {MAX_AMPLIFICATION:.0e}: the "
+            f"estimate extrapolates from one end), got {value!r}{or_q}"
+        )
 
     @property
     def time_symmetric(self) -> bool:  # type: ignore[override]
@@ -154,8 +218,61 @@ class Jacobi(FirMethod):
         )
 
     def check_step(self, dt: float) -> None:
-        for order in (0, 1, 2):
-            self.taps(order, dt)
+        """Each window must be a whole even number of steps (at most ``MAX_WINDOW_STEPS``),
+        hold n + q + 2 samples, and be long enough for the rule to differentiate polynomials
+        of degree n + q as the continuous kernel does (``RULE_TOLERANCE``) for every order it
+        serves; the error names the window and the shortest one that works (found to 2 %)."""
+        self._check_window("window_s", (0, 1), dt)
+        self._check_window("accel_window_s", (2,), dt)
+
+    def _check_window(self, name: str, orders: tuple[int, ...], dt: float) -> None:
+        window = getattr(self, name)
+        m = half_width(window, dt, name)
+        longest = f"{2 * (MAX_WINDOW_STEPS // 2) * dt:.6g}"
+        fewest = (max(orders) + self.q + 2) // 2  # the least M with 2M + 1 >= n + q + 2
+        for order in orders:
+            needed = order + self.q + 2
+            if 2 * m + 1 < needed:
+                raise ValueError(
+                    f"`{name}` must be in [{2 * fewest * dt:.6g}, {longest}] s at dt={dt!r} s: "
+                    f"the window holds {2 * m + 1} samples; a Jacobi estimate with n + q = "
+                    f"{order + self.q} needs at least {needed} (or lower `q`), got {window!r}"
+                )
+        design = (self.kappa, self.mu, self.q)
+        tolerance = RULE_TOLERANCE[self.rule]
+        errors = {order: discretisation_error(order, *design, m, dt, self.rule) for order in orders}
+        failing = [order for order in orders if errors[order] > tolerance]
+        if not failing:
+            return
+        worst = max(failing, key=errors.get)
+        missed = (
+            f"on {window!r} s the order-{worst} taps are off by {errors[worst]:.2g} on "
+            f"polynomials up to degree {worst + self.q}, more than {tolerance:g}"
+        )
+        limit = min(MAX_WINDOW_STEPS // 2, SEARCH_HALF_WIDTH)
+        # orders that pass at m pass on longer windows too (the error falls as M grows)
+        this_rule = shortest_half_width(orders, *design, dt, self.rule, m + 1, limit)
+        others = {
+            rule: shortest_half_width(orders, *design, dt, rule, fewest, limit)
+            for rule in RULES
+            if rule != self.rule and (rule == "linear" or min(self.kappa, self.mu) >= 0)
+        }
+        alternatives = "; ".join(
+            f"rule={rule!r} works from {2 * other * dt:.6g} s"
+            for rule, other in others.items()
+            if other is not None
+        )
+        settings = f"kappa={self.kappa!r}, mu={self.mu!r}, q={self.q}"
+        if this_rule is None:
+            raise ValueError(
+                f"`rule`={self.rule!r} fails for {settings} at dt={dt!r} s on every `{name}` "
+                f"up to {2 * limit * dt:.6g} s ({missed}): {alternatives or 'no rule works'}"
+            )
+        raise ValueError(
+            f"`{name}` must be in [{2 * this_rule * dt:.6g}, {longest}] s at dt={dt!r} s for "
+            f"rule={self.rule!r} with {settings} (shorter, too few samples resolve the kernel: "
+            f"{missed}), got {window!r}" + (f"; {alternatives}" if alternatives else "")
+        )
 
     def min_samples(self, dt: float) -> int:
         return 2 * max(self._half_width(order, dt) for order in (0, 1, 2)) + 1
@@ -165,3 +282,16 @@ class Jacobi(FirMethod):
             return None
         bonus = 1 if self.kappa == self.mu and self.q % 2 == 0 else 0
         return order + self.q + bonus
+
+
+def _edge(works, inside: float, outside: float) -> float:
+    """The value nearest ``outside`` on the segment from ``inside`` (which works) up to which
+    everything works: ``outside`` itself if it works, else bisection to 1e-3 (assuming one
+    crossing), rounded to 1e-3 towards ``inside`` so that the value returned works."""
+    if works(outside):
+        return outside
+    good, bad = inside, outside
+    while abs(good - bad) > 1e-3:
+        middle = (good + bad) / 2
+        good, bad = (middle, bad) if works(middle) else (good, middle)
+    return math.floor(good * 1e3) / 1e3 if good < bad else math.ceil(good * 1e3) / 1e3

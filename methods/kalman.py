@@ -7,12 +7,21 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from diffbench.methods._registry import Method, Preset, param, register
 from scipy import fft as sp_fft
+
+from diffbench.methods._registry import Method, Preset, param, register
 
 _STATIONARY = 4 * np.finfo(float).eps  # relative change of the gains that counts as none
 _SETTLED = 1e-11  # relative change accepted as converged once held for 50 m steps
 _NEGLIGIBLE = 1e-18  # relative size at which the impulse responses are truncated
+
+MIN_BANDWIDTH_STEPS = 1e-4
+"""Lowest ``bandwidth_hz * dt``. The steady-state gains (which the frequency response needs)
+take about 5-6 / (bandwidth_hz * dt) steps of the covariance recursion: measured 4.8e4 to
+6.0e4 steps (2-3 s) at 1e-4, 1.5e5 to 2.0e5 (5-8 s) at 3e-5, 4.3e5 to 5.5e5 (19-24 s) at
+1e-5, against a cap of 10^6 steps (below about 5e-6 the 'steady' gains are a truncation). The
+estimate itself stays exact on polynomials at any bandwidth (it runs at most one step per
+sample)."""
 
 
 @dataclass(frozen=True)
@@ -89,20 +98,32 @@ class Gains:
     steady_smoother: np.ndarray  # (m, m)
 
 
-def covariance_recursion(model: KalmanModel, prior_covariance: np.ndarray, n: int) -> Gains:
+def covariance_recursion(
+    model: KalmanModel, prior_covariance: np.ndarray, n: int, stop_at_rest: bool = False
+) -> Gains:
     """Run the covariance part of the filter and smoother (filterpy's equations: Joseph-form
     update, C_k = P_k Fᵀ (F P_k Fᵀ + Q)⁻¹) for n steps or until both gains are stationary
     to rounding (relative change <= 4 eps for 2m consecutive steps, or <= 1e-11 for 50m steps
     where rounding keeps the last bits moving): the recursion's own fixed point, which is what
-    filterpy converges to."""
+    filterpy converges to.
+
+    With ``stop_at_rest`` (for the steady gains alone, see :func:`_steady_gains`), also stop
+    once P itself is still to 4 eps (elementwise, relative) for 50m steps: the fixed point
+    too, reached while P flips in its last bits and C, computed through the ill-conditioned
+    (F P Fᵀ + Q)⁻¹ at low bandwidth_hz * dt, amplifies the flips beyond 1e-11 (measured, for
+    the constant-jerk model: C alternating by 1e-7 at bandwidth_hz * dt = 2.7e-4, wandering by
+    1e-6 at 2.4e-4), so that the first two stops may never come (10^6 steps, 37 s, for one
+    frequency response). The estimate keeps the first two stops (it runs at most n steps).
+    """
     F, Q, R, m = model.F, model.Q, model.R, model.states
     F_t = F.T
     identity = np.eye(m)
     inverse = np.linalg.inv
     P = prior_covariance
     filter_gains, smoother_gains = [], []
-    quiet = settled = 0
+    quiet = settled = resting = 0
     for _ in range(n):
+        previous = P
         predicted = F @ P @ F_t + Q
         gain = predicted[:, 0] / (predicted[0, 0] + R)
         i_kh = identity.copy()
@@ -111,18 +132,20 @@ def covariance_recursion(model: KalmanModel, prior_covariance: np.ndarray, n: in
         smoother = P @ F_t @ inverse(F @ P @ F_t + Q)
         if filter_gains:
             # ndarray methods: this loop is the Kalman smoother's fixed cost per call
-            still = abs(gain - filter_gains[-1]).max() <= _STATIONARY * abs(gain).max() and (
-                abs(smoother - smoother_gains[-1]).max() <= _STATIONARY * abs(smoother).max()
-            )
+            gain_still = abs(gain - filter_gains[-1]).max() <= _STATIONARY * abs(gain).max()
+            scale = _STATIONARY * abs(smoother).max()
+            still = gain_still and abs(smoother - smoother_gains[-1]).max() <= scale
             quiet = quiet + 1 if still else 0
             # Where rounding keeps the last bits moving, settle for 1e-11 held for 50 m steps.
             close = abs(gain - filter_gains[-1]).max() <= _SETTLED * abs(gain).max() and (
                 abs(smoother - smoother_gains[-1]).max() <= _SETTLED * abs(smoother).max()
             )
             settled = settled + 1 if close else 0
+            at_rest = (abs(P - previous) <= _STATIONARY * abs(P)).all()
+            resting = resting + 1 if at_rest else 0
         filter_gains.append(gain)
         smoother_gains.append(smoother)
-        if quiet >= 2 * m or settled >= 50 * m:
+        if quiet >= 2 * m or settled >= 50 * m or (stop_at_rest and resting >= 50 * m):
             break
     return Gains(
         filter_gains=np.array(filter_gains),
@@ -231,7 +254,7 @@ def _steady_gains(model_order: int, dt: float, bandwidth_hz: float) -> Gains:
     cached: the frequency response needs them for every frequency set)."""
     model = _cached_model(model_order, dt, bandwidth_hz)
     _, covariance0 = initial_state(np.zeros((4 * model.states, 1)), model.states)
-    return covariance_recursion(model, covariance0, 10**6)
+    return covariance_recursion(model, covariance0, 10**6, stop_at_rest=True)
 
 
 @functools.lru_cache(maxsize=64)
@@ -255,8 +278,10 @@ class KalmanSmoother(Method):
 
     Parameters
     ----------
-    bandwidth_hz : float > 0
-        Where the steady-state smoother passes one half; must be below Nyquist.
+    bandwidth_hz : float in [1e-4/dt, 1/(2 dt))
+        Where the steady-state smoother passes one half; below Nyquist, and at least
+        ``1e-4 / dt`` (lower bandwidths take over 6e4 steps to reach the steady state: see
+        ``MIN_BANDWIDTH_STEPS``). Checked against the step by ``check_step``.
     model_order : {2, 3}
         2: constant acceleration (white jerk), 3: constant jerk (white snap).
 
@@ -267,7 +292,7 @@ class KalmanSmoother(Method):
 
     bandwidth_hz: float = param(
         20.0, low=0.0, low_open=True, tune_low=0.5, tune_high=200.0, log=True,
-        doc="-6 dB point of the steady-state smoother, Hz (sets q/R)",
+        doc="-6 dB point of the steady-state smoother, Hz (sets q/R)", kind="frequency",
     )  # fmt: skip
     model_order: int = param(
         2, choices=(2, 3), integer=True, doc="2: constant acceleration, 3: constant jerk"
@@ -290,10 +315,19 @@ class KalmanSmoother(Method):
 
     def check_step(self, dt: float) -> None:
         nyquist = 0.5 / dt
+        lowest = MIN_BANDWIDTH_STEPS / dt
+        allowed = f"[{lowest:g}, {nyquist:g}) Hz"
         if self.bandwidth_hz >= nyquist:
             raise ValueError(
                 f"`bandwidth_hz` must be below the Nyquist frequency {nyquist:g} Hz for "
-                f"dt={dt!r} s, got {self.bandwidth_hz!r}"
+                f"dt={dt!r} s, i.e. in {allowed}, got {self.bandwidth_hz!r}"
+            )
+        if self.bandwidth_hz < lowest:
+            raise ValueError(
+                f"`bandwidth_hz` must be in {allowed} at dt={dt!r} s (the steady-state gains "
+                f"settle in about 6 / (bandwidth_hz * dt) steps: below {MIN_BANDWIDTH_STEPS:g} "
+                f"/ dt that is over 6e4 steps, and from about 5e-6 / dt beyond the 10^6-step "
+                f"cap), got {self.bandwidth_hz!r}"
             )
 
     def min_samples(self, dt: float) -> int:

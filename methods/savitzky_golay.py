@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+
 from diffbench.methods._local_poly import (
     local_polynomial_weights,
     savitzky_golay_filter,
@@ -31,7 +32,8 @@ class SavitzkyGolay(FirMethod):
     Parameters
     ----------
     window_s : float > 0
-        Window span in seconds; ``window_s / dt`` must be an even whole number.
+        Window span in seconds; ``window_s / dt`` must be an even whole number, at most
+        100 000 (``MAX_WINDOW_STEPS``).
     degree : int in [0, 20]
         Degree of the local polynomial; must be below the window's sample count.
 
@@ -49,6 +51,7 @@ class SavitzkyGolay(FirMethod):
         tune_high=1.0,
         log=True,
         doc="window span 2m*dt in seconds (odd sample count)",
+        kind="window",
     )
     degree: int = param(
         3, low=0, high=20, integer=True, tune_low=1, tune_high=11, doc="polynomial degree"

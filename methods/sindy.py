@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+
 from diffbench.methods._fir import fir_response
 from diffbench.methods._local_poly import (
     local_polynomial_weights,
@@ -33,7 +34,8 @@ class SindySmoothing(Method):
     Parameters
     ----------
     window_s : float > 0
-        Smoother window span in seconds; ``window_s / dt`` must be an even whole number.
+        Smoother window span in seconds; ``window_s / dt`` must be an even whole number, at
+        most 100 000 (``MAX_WINDOW_STEPS``).
     degree : int in [0, 20]
         Smoother polynomial degree, below the window's sample count.
     accuracy_order : {2, 4}
@@ -53,6 +55,7 @@ class SindySmoothing(Method):
         tune_high=1.0,
         log=True,
         doc="smoother window span 2m*dt in seconds (odd sample count)",
+        kind="window",
     )
     degree: int = param(
         3, low=0, high=20, integer=True, tune_low=1, tune_high=11, doc="smoother degree"

@@ -18,7 +18,7 @@ ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 def test_list_shows_methods_parameters_presets_and_tasks(capsys):
     assert main(["list"]) == 0
     out = capsys.readouterr().out
-    for text in ("butterworth", "cutoff_hz", "preset paper-signal (preset (paper)): order=6, "
+    for text in ("butterworth", "cutoff_hz", "preset paper-signal (by paper): order=6, "
                  "cutoff_hz=25.0", "savitzky_golay", "window_s", "paper-signal [signal]",
                  "robot-sim [robot (simulated)]", "dfki-cv [robot (real)]",
                  "jacobi-influence", "36 grid tasks"):  # fmt: skip

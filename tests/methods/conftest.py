@@ -1,6 +1,7 @@
 """Method instances every contract test runs on: defaults, each preset, and extra settings."""
 
 import pytest
+
 from diffbench import methods
 
 EXTRA = {

@@ -4,12 +4,13 @@ import math
 
 import numpy as np
 import pytest
+
 from diffbench import methods
 from diffbench.methods import uniform_step
 
 DT = 1e-3
 GOOD = np.sin(np.linspace(0, 3, 600))
-ALL = ["butterworth", "finite_difference", "savitzky_golay", "sindy_smoothing"]
+ALL = [name for name in methods.available() if not name.startswith("_test")]
 
 
 @pytest.mark.parametrize("name", ALL)

@@ -9,11 +9,11 @@ import math
 
 import numpy as np
 import pytest
-from diffbench import methods
 from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
+from diffbench import methods
 from tests.methods.conftest import method_cases
 
 DT = 1e-3

@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
-from diffbench import methods
 
+from diffbench import methods
 from tests.methods.conftest import method_cases
 
 DT = 1e-3

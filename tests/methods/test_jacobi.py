@@ -2,6 +2,9 @@
 
 import numpy as np
 import pytest
+from scipy import signal as sps
+from scipy import special
+
 from diffbench import methods
 from diffbench.methods.jacobi_kernel import (
     continuous_response,
@@ -9,8 +12,6 @@ from diffbench.methods.jacobi_kernel import (
     jacobi_polynomials,
     kernel,
 )
-from scipy import signal as sps
-from scipy import special
 
 
 def _weighted_least_squares(order, kappa, mu, q, func):
@@ -57,6 +58,11 @@ def test_recurrence_matches_scipy_eval_jacobi(a, b):
         (2, 4.0, 0.0, 5),
         (1, 50.0, 50.0, 20),
         (2, 100.0, 100.0, 20),
+        # the declared limits: kappa, mu <= 400 (measured: still 1e-10 here at q = 40)
+        (0, 400.0, 400.0, 40),
+        (1, 400.0, 400.0, 40),
+        (2, 400.0, 400.0, 40),
+        (2, 400.0, 380.0, 12),
     ],
 )
 def test_kernel_equals_an_independent_weighted_least_squares_fit(order, kappa, mu, q):
@@ -164,8 +170,10 @@ def test_paper_settings_give_the_published_gain_at_15_hz():
 @pytest.mark.parametrize(
     ("params", "message"),
     [
-        ({"kappa": -1.0}, r"`kappa` must be a finite number in \(-1, inf\)"),
-        ({"mu": -1.5}, r"`mu` must be a finite number in \(-1, inf\)"),
+        ({"kappa": -1.0}, r"`kappa` must be a finite number in \[-0.999, 400\]"),
+        ({"mu": -1.5}, r"`mu` must be a finite number in \[-0.999, 400\]"),
+        ({"mu": -0.9995}, r"`mu` must be a finite number in \[-0.999, 400\], got -0.9995"),
+        ({"mu": 400.5}, r"`mu` must be a finite number in \[-0.999, 400\], got 400.5"),
         ({"q": -1}, r"`q` must be an integer in \[0, 40\]"),
         ({"q": 2.5}, r"`q` must be an integer"),
         ({"rule": "simpson"}, r"`rule` must be one of \{trapezoid, linear, least_squares\}"),

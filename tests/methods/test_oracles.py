@@ -3,10 +3,11 @@ response of the paper's test signal."""
 
 import numpy as np
 import pytest
+from scipy import signal as sps
+
 from diffbench import methods
 from diffbench.methods._local_poly import local_polynomial_weights
 from diffbench.methods.finite_difference import central_difference_weights
-from scipy import signal as sps
 
 DT = 1e-3
 

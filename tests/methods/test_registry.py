@@ -1,13 +1,20 @@
 """The registry: names, parameters, presets and the Estimate contract."""
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
+
 from diffbench import methods
 from diffbench.methods import Method, Preset, param, register
 
 EXPECTED = {"butterworth", "finite_difference", "savitzky_golay", "sindy_smoothing"}
+
+
+def _registered():
+    """Every registered method (generated from the registry, never a hand-written list)."""
+    return [name for name in methods.available() if not name.startswith("_test")]
 
 
 def test_available_lists_the_builtin_methods():
@@ -50,7 +57,7 @@ def test_preset_with_out_of_range_value_is_rejected_at_registration():
             presets = {"x": Preset({"width": -1.0}, "test")}
 
 
-@pytest.mark.parametrize("name", sorted(EXPECTED))
+@pytest.mark.parametrize("name", _registered())
 def test_every_parameter_is_declared_with_range_and_presets_are_valid(name):
     cls = methods.method_class(name)
     specs = methods.params_of(cls)
@@ -92,6 +99,49 @@ def test_every_parameter_is_declared_with_range_and_presets_are_valid(name):
 def test_out_of_range_parameters_name_the_argument_and_range(name, params, message):
     with pytest.raises(ValueError, match=message):
         methods.get(name, **params)
+
+
+@pytest.mark.parametrize("name", _registered())
+def test_windows_and_frequencies_say_their_kind(name):
+    """``kind`` is declared, never guessed, and says what the name suffixes bench/tuning.py
+    guessed from (``*window_s``, ``*_hz``): reading ``spec.kind`` instead changes nothing."""
+    for spec in methods.params_of(methods.method_class(name)):
+        guessed = (
+            "window"
+            if spec.name.endswith("window_s")
+            else "frequency"
+            if spec.name.endswith("_hz")
+            else None
+        )
+        assert spec.kind == guessed, spec.name
+        assert spec.kind in methods.PARAM_KINDS
+
+
+def test_kind_defaults_to_none_and_changes_nothing_else():
+    plain = methods.Param(name="width", default=1.0, low=0.0, low_open=True, tune_low=0.1,
+                          tune_high=2.0, log=True, doc="a width")  # fmt: skip
+    assert plain.kind is None
+    windowed = dataclasses.replace(plain, kind="window")
+    assert windowed.describe_range() == plain.describe_range() == "(0, inf)"
+    for value in (0.5, np.float32(2.0), 7):
+        assert windowed.check(value) == plain.check(value)
+    for value in (0.0, -1.0, math.nan, "wide", True):
+        with pytest.raises(ValueError) as with_kind:
+            windowed.check(value)
+        with pytest.raises(ValueError) as without_kind:
+            plain.check(value)
+        assert str(with_kind.value) == str(without_kind.value)
+
+
+def test_unknown_kind_is_rejected_at_registration():
+    with pytest.raises(ValueError, match=r"_test_bad_kind: parameter `width` has kind 'windows'; "
+                       r"it must be one of None, 'window', 'frequency'"):  # fmt: skip
+
+        @register("_test_bad_kind")
+        class BadKind(Method):
+            width: float = param(1.0, low=0.0, low_open=True, kind="windows")
+
+    assert "_test_bad_kind" not in methods.available()
 
 
 def test_integer_parameters_accept_numpy_integers_and_store_plain_ints():

@@ -7,8 +7,9 @@ checks, the invalid-sample mask, the kernel lookup). Compare the two rows of
 
 import numpy as np
 import pytest
-from diffbench import methods
 from scipy import signal as sps
+
+from diffbench import methods
 
 SIZE = 1_000_000
 DT = 1e-3

@@ -7,6 +7,7 @@ asserted.
 
 import numpy as np
 import pytest
+
 from diffbench import methods
 from diffbench.methods.kalman import initial_state
 

@@ -7,6 +7,7 @@ Seeded input, warmed up; the result is checked after timing; no wall-clock time 
 
 import numpy as np
 import pytest
+
 from diffbench import methods
 
 DT = 1e-3
