@@ -13,14 +13,32 @@ PACKAGES = ("diffbench", "numpy", "scipy", "pandas", "pysindy", "filterpy")
 
 @functools.cache
 def provenance() -> dict[str, str]:
-    """``{"versions": "python=3.11.7;numpy=...", "git_rev": "<sha>[+dirty]"}``."""
-    versions = [f"python={platform.python_version()}"]
+    """``{"versions": "python=3.11.7;blas=openblas 0.3.31 SkylakeX;numpy=...",
+    "git_rev": "<sha>[+dirty]"}``. The BLAS kernel is chosen at run time from the CPU and
+    changes the last bits of results (see :func:`diffbench.bench.tuning.comparable_loss`)."""
+    versions = [f"python={platform.python_version()}", f"blas={blas_kernel()}"]
     for package in PACKAGES:
         try:
             versions.append(f"{package}={metadata.version(package)}")
         except metadata.PackageNotFoundError:
             versions.append(f"{package}=absent")
     return {"versions": ";".join(versions), "git_rev": git_revision()}
+
+
+def blas_kernel() -> str:
+    """numpy's BLAS library, version and CPU kernel, as threadpoolctl reports them."""
+    import numpy  # noqa: F401  (loads the BLAS library threadpoolctl inspects)
+
+    try:
+        import threadpoolctl
+    except ImportError:
+        return "unknown"
+    found = [
+        f"{info.get('internal_api')} {info.get('version')} {info.get('architecture', '')}".strip()
+        for info in threadpoolctl.threadpool_info()
+        if info.get("user_api") == "blas"
+    ]
+    return ",".join(found) or "unknown"
 
 
 def git_revision(directory: Path | None = None) -> str:
