@@ -38,7 +38,7 @@ def blas_kernel() -> str:
         for info in threadpoolctl.threadpool_info()
         if info.get("user_api") == "blas"
     ]
-    return ",".join(found) or "unknown"
+    return ",".join(sorted(found)) or "unknown"
 
 
 def git_revision(directory: Path | None = None) -> str:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 
+from diffbench import methods
 from diffbench.bench import runner, tuning
 from diffbench.bench.cli import main
 from diffbench.bench.store import Store
@@ -168,3 +169,32 @@ def test_rerun_of_tune_retunes_nothing_and_tuning_is_reproducible(tmp_path, caps
     assert first[columns].sort_values(key).to_numpy().tolist() == (
         second[columns].sort_values(key).to_numpy().tolist()
     )  # identical, bit for bit
+
+
+def test_rerun_of_grid_retunes_and_recomputes_nothing(tmp_path, capsys, monkeypatch):
+    from diffbench.bench import grid
+    from diffbench.signals.scenarios import grid_scenario_name
+
+    coarse = [grid_scenario_name(kind, 0.2, 1e-2) for kind in ("gaussian", "poisson")]
+    monkeypatch.setattr(grid, "task_names", lambda: coarse)
+    calls = []
+    real = tuning.tune
+
+    def counted(*args, **kwargs):
+        calls.append(args[0])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(tuning, "tune", counted)
+    args = ["grid", "--orders", "1", "--seeds", "2", "--no-progress", "--out", str(tmp_path)]
+    n_methods = len(methods.available())
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert len(calls) == 2 * n_methods
+    assert f"{2 * n_methods} tunings computed, 0 reused" in out
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert len(calls) == 2 * n_methods  # nothing re-tuned
+    assert f"0 tunings computed, {2 * n_methods} reused" in out
+    assert "0 cells computed" in out
+    table = (tmp_path / "grid" / "winners_velocity.md").read_text()
+    assert table.count("(") >= 2  # both tasks name a winner with its RMSE
