@@ -141,13 +141,26 @@ def build_parser() -> argparse.ArgumentParser:
         help="comma-separated method names (default: every registered method)",
     )
 
+    plug = _Parser(add_help=False)
+    plug.add_argument(
+        "--plugin",
+        dest="plugins",
+        action="append",
+        default=[],
+        metavar="MODULE",
+        help="import MODULE first, registering its methods (repeatable; installed plugins "
+        "load by themselves through their entry points; see also $DIFFBENCH_PLUGINS)",
+    )
+
     commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    listing = commands.add_parser("list", help="methods (parameters, ranges, presets) and tasks")
+    listing = commands.add_parser(
+        "list", parents=[plug], help="methods (parameters, ranges, presets) and tasks"
+    )
     listing.set_defaults(handler=_cmd_list)
 
     run = commands.add_parser(
         "run",
-        parents=[out, work, seeds, pick],
+        parents=[out, work, seeds, pick, plug],
         help="run every method at its preset on a task, write its report",
     )
     run.add_argument("task", help="task name (see `diffbench list`)")
@@ -155,7 +168,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     tune = commands.add_parser(
         "tune",
-        parents=[out, work, seeds],
+        parents=[out, work, seeds, plug],
         help="tune methods on a task's tuning seed (stored, reused), score on other seeds",
     )
     tune.add_argument("method", help="method name, comma-separated names, or 'all'")
@@ -186,7 +199,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     grid = commands.add_parser(
         "grid",
-        parents=[out, work],
+        parents=[out, work, plug],
         help="tune every method on the noise x level x step grid, score it, name the winners",
     )
     grid.add_argument("--seeds", type=_positive_int, default=10, help="scored seeds 0..N-1")
@@ -196,17 +209,19 @@ def build_parser() -> argparse.ArgumentParser:
     grid.set_defaults(handler=_cmd_grid)
 
     figures = commands.add_parser(
-        "paper-figures", parents=[out], help="the paper's figures 1-3 (PNG + CSV), frequency table"
+        "paper-figures",
+        parents=[out, plug],
+        help="the paper's figures 1-3 (PNG + CSV), frequency table",
     )
     figures.set_defaults(handler=_cmd_paper_figures)
 
     timing = commands.add_parser(
-        "timing", parents=[out], help="throughput of every method vs signal length"
+        "timing", parents=[out, plug], help="throughput of every method vs signal length"
     )
     timing.set_defaults(handler=_cmd_timing)
 
     report = commands.add_parser(
-        "report", parents=[out], help="render a task's report again from the store"
+        "report", parents=[out, plug], help="render a task's report again from the store"
     )
     report.add_argument("task")
     report.set_defaults(handler=_cmd_report)
@@ -216,9 +231,12 @@ def build_parser() -> argparse.ArgumentParser:
 # --- commands ------------------------------------------------------------------------------
 def _cmd_list(args) -> None:
     print("methods (name: parameter range [tuning range] default; presets)")
+    plugins = {p.module.split(".")[0]: p for p in methods.loaded_plugins()}
     for name in methods.available():
         cls = methods.method_class(name)
-        print(f"  {name}  ({'linear' if cls.linear else 'nonlinear'}; {cls.reference})")
+        shipped = plugins.get(cls.__module__.split(".")[0])
+        origin = f"; plugin {shipped.label}" if shipped else ""
+        print(f"  {name}  ({'linear' if cls.linear else 'nonlinear'}; {cls.reference}{origin})")
         for spec in methods.params_of(cls):
             tune = ""
             if spec.tune_low is not None:
@@ -238,6 +256,15 @@ def _cmd_list(args) -> None:
     grid = [n for n in available_tasks() if not get_task(n).listed]
     if grid:
         print(f"  ... and {len(grid)} grid tasks ({grid[0]} ... {grid[-1]}; diffbench grid)")
+
+
+def _load_plugins(modules: list[str]) -> None:
+    """The installed plugins and ``$DIFFBENCH_PLUGINS``, then each ``--plugin`` module."""
+    with user_input():
+        methods.available()  # loads the entry points and the environment's modules
+    for module in modules:
+        with user_input("--plugin: "):
+            methods.load_plugin(module)
 
 
 def _task(name: str):
@@ -444,6 +471,7 @@ def main(argv: list[str] | None = None) -> int:
         args = build_parser().parse_args(argv)
         set_command(argv)
         terminate_on_sigterm()
+        _load_plugins(args.plugins)
         args.handler(args)
     except UsageError as error:
         message = str(error).splitlines()[0] if str(error) else "bad command line"

@@ -11,11 +11,22 @@ from pathlib import Path
 PACKAGES = ("diffbench", "numpy", "scipy", "pandas", "pysindy", "filterpy")
 
 
-@functools.cache
 def provenance() -> dict[str, str]:
-    """``{"versions": "python=3.11.7;blas=openblas 0.3.31 SkylakeX;numpy=...",
-    "git_rev": "<sha>[+dirty]"}``. The BLAS kernel is chosen at run time from the CPU and
-    changes the last bits of results (see :func:`diffbench.bench.tuning.comparable_loss`)."""
+    """``{"versions": "python=3.11.7;blas=openblas 0.3.31 SkylakeX;plugin=mod (dist 1.0);
+    numpy=...", "git_rev": "<sha>[+dirty]"}``. The BLAS kernel is chosen at run time from the
+    CPU and changes the last bits of results (see
+    :func:`diffbench.bench.tuning.comparable_loss`); plugins are the method modules loaded
+    from outside diffbench (see ``diffbench.methods._plugins``)."""
+    from diffbench import methods
+
+    base = _fixed_provenance()
+    plugins = [f"plugin={plugin.label}" for plugin in methods.loaded_plugins()]
+    python, blas, *packages = base["versions"].split(";")
+    return {"versions": ";".join([python, blas, *plugins, *packages]), "git_rev": base["git_rev"]}
+
+
+@functools.cache
+def _fixed_provenance() -> dict[str, str]:
     versions = [f"python={platform.python_version()}", f"blas={blas_kernel()}"]
     for package in PACKAGES:
         try:

@@ -9,11 +9,20 @@ Every differentiator is a small frozen class registered by name::
 
 ``available()`` lists the names, ``method_class(name)`` gives the class with its parameter
 specifications (``params_of``) and presets, ``preset(name, key)`` an instance at a preset.
+Methods from other packages join the registry as plugins (entry points of the group
+``diffbench.methods``, or ``load_plugin(module)``; see ``methods._plugins``).
 """
 
 # Importing the family modules registers their methods (heavy libraries load lazily).
 from diffbench.methods import butterworth, finite_difference, jacobi, kalman, savitzky_golay, sindy
 from diffbench.methods._fir import central_mask
+from diffbench.methods._plugins import (
+    ENTRY_POINT_GROUP,
+    ENV_VARIABLE,
+    Plugin,
+    load_plugin,
+    loaded_plugins,
+)
 from diffbench.methods._registry import (
     DEFAULT_PRESET,
     PARAM_KINDS,
@@ -35,11 +44,14 @@ from diffbench.methods._validation import (
     MAX_ORDER,
     MAX_WINDOW_STEPS,
     check_signal,
+    samples_in_span,
     uniform_step,
 )
 
 __all__ = [
     "DEFAULT_PRESET",
+    "ENTRY_POINT_GROUP",
+    "ENV_VARIABLE",
     "MAX_ORDER",
     "MAX_WINDOW_STEPS",
     "PARAM_KINDS",
@@ -47,6 +59,7 @@ __all__ = [
     "FirMethod",
     "Method",
     "Param",
+    "Plugin",
     "Preset",
     "available",
     "butterworth",
@@ -56,12 +69,15 @@ __all__ = [
     "get",
     "jacobi",
     "kalman",
+    "load_plugin",
+    "loaded_plugins",
     "method_class",
     "param",
     "params_of",
     "preset",
     "preset_spec",
     "register",
+    "samples_in_span",
     "savitzky_golay",
     "sindy",
     "uniform_step",

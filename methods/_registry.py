@@ -17,6 +17,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from diffbench.methods._fir import apply_central_fir, fir_response
+from diffbench.methods._plugins import load_automatic_plugins
 from diffbench.methods._validation import check_dt, check_orders, check_signal
 
 _REGISTRY: dict[str, type[Method]] = {}
@@ -289,12 +290,14 @@ def register(name: str):
 
 
 def available() -> list[str]:
-    """Names of the registered methods, sorted."""
+    """Names of the registered methods, sorted (plugins included, see ``methods._plugins``)."""
+    load_automatic_plugins()
     return sorted(_REGISTRY)
 
 
 def method_class(name: str) -> type[Method]:
     """The class registered as ``name``; an unknown name lists the valid ones."""
+    load_automatic_plugins()
     try:
         return _REGISTRY[name]
     except KeyError:

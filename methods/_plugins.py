@@ -1,0 +1,128 @@
+"""Methods registered from outside diffbench: entry points and modules named at run time.
+
+A plugin is a Python module whose import registers methods with
+:func:`diffbench.methods.register`. It is found in two ways:
+
+- an installed distribution declares it as an entry point of the group ``diffbench.methods``
+  (in its ``pyproject.toml``: ``[project.entry-points."diffbench.methods"]
+  my_methods = "my_package.methods"``); every such entry point is loaded the first time the
+  registry is asked for its methods;
+- a module named for one run: ``diffbench --plugin my_module ...`` on the command line, or
+  ``DIFFBENCH_PLUGINS=my_module,other_module`` in the environment (or
+  :func:`load_plugin` from Python).
+
+An entry point that fails to load is reported as a warning and skipped, so one broken
+distribution does not disable diffbench; a module named explicitly that cannot be found is an
+error naming it.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import threading
+import warnings
+from dataclasses import dataclass
+from importlib import metadata
+
+ENTRY_POINT_GROUP = "diffbench.methods"
+ENV_VARIABLE = "DIFFBENCH_PLUGINS"
+
+
+@dataclass(frozen=True)
+class Plugin:
+    """A loaded plugin module, how it was found, and the distribution that ships it."""
+
+    module: str
+    found_by: str  # "entry point", "--plugin" or the environment variable's name
+    distribution: str | None = None
+    version: str | None = None
+
+    @property
+    def label(self) -> str:
+        shipped = f" ({self.distribution} {self.version})" if self.distribution else ""
+        return f"{self.module}{shipped}"
+
+
+_LOADED: dict[str, Plugin] = {}
+_LOCK = threading.RLock()
+_STATE = {"automatic": False}
+
+
+def loaded_plugins() -> list[Plugin]:
+    """The plugins loaded so far, in load order."""
+    return list(_LOADED.values())
+
+
+def load_plugin(module: str, found_by: str = "--plugin") -> Plugin:
+    """Import ``module`` (registering its methods) unless it is loaded already.
+
+    Raises ``ValueError`` naming the module if it cannot be found; an error raised by the
+    plugin's own code propagates as it is (it is the plugin's bug, not a usage error).
+    """
+    name = module.strip()
+    if not name or not all(part.isidentifier() for part in name.split(".")):
+        raise ValueError(f"plugin module {module!r} is not a dotted Python module name")
+    with _LOCK:
+        if name in _LOADED:
+            return _LOADED[name]
+        try:
+            importlib.import_module(name)
+        except ModuleNotFoundError as error:
+            missing = error.name or ""
+            if name == missing or name.startswith(missing + "."):
+                raise ValueError(
+                    f"plugin module {name!r} cannot be imported ({error}); install the package "
+                    f"that provides it or add its folder to PYTHONPATH"
+                ) from None
+            raise
+        plugin = Plugin(name, found_by, *_distribution_of(name))
+        _LOADED[name] = plugin
+        return plugin
+
+
+def load_automatic_plugins() -> None:
+    """Load, once per process, every entry point of the group ``diffbench.methods`` and every
+    module named in ``$DIFFBENCH_PLUGINS`` (comma-separated)."""
+    with _LOCK:
+        if _STATE["automatic"]:
+            return
+        _STATE["automatic"] = True  # set first: plugins call register(), which may ask again
+        for entry_point in sorted(
+            metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name
+        ):
+            try:
+                loaded = entry_point.load()
+            except Exception as error:
+                shipped = entry_point.dist.name if entry_point.dist else "an unknown package"
+                warnings.warn(
+                    f"diffbench plugin {entry_point.name!r} ({entry_point.value}, from "
+                    f"{shipped}) failed to load and is skipped: {type(error).__name__}: "
+                    f"{error}",
+                    RuntimeWarning,
+                    stacklevel=2,
+                )
+                continue
+            module = getattr(loaded, "__name__", entry_point.module)
+            if module not in _LOADED:
+                dist = entry_point.dist
+                _LOADED[module] = Plugin(
+                    module,
+                    "entry point",
+                    dist.name if dist else None,
+                    dist.version if dist else None,
+                )
+        for name in os.environ.get(ENV_VARIABLE, "").split(","):
+            if name.strip():
+                try:
+                    load_plugin(name, found_by=ENV_VARIABLE)
+                except ValueError as error:
+                    raise ValueError(f"${ENV_VARIABLE}: {error}") from None
+
+
+def _distribution_of(module: str) -> tuple[str | None, str | None]:
+    top = module.split(".")[0]
+    names = metadata.packages_distributions().get(top, [])
+    if not names:
+        return None, None
+    return names[0], metadata.version(names[0])
