@@ -14,7 +14,15 @@ Methods from other packages join the registry as plugins (entry points of the gr
 """
 
 # Importing the family modules registers their methods (heavy libraries load lazily).
-from diffbench.methods import butterworth, finite_difference, jacobi, kalman, savitzky_golay, sindy
+from diffbench.methods import (
+    butterworth,
+    finite_difference,
+    jacobi,
+    kalman,
+    savitzky_golay,
+    sindy,
+    spectral,
+)
 from diffbench.methods._fir import central_mask
 from diffbench.methods._plugins import (
     ENTRY_POINT_GROUP,
@@ -80,5 +88,6 @@ __all__ = [
     "samples_in_span",
     "savitzky_golay",
     "sindy",
+    "spectral",
     "uniform_step",
 ]

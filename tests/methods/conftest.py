@@ -9,6 +9,10 @@ EXTRA = {
     "savitzky_golay": [{"window_s": 0.05, "degree": 2}, {"window_s": 0.03, "degree": 5}],
     "sindy_smoothing": [{"window_s": 0.05, "degree": 5, "accuracy_order": 4}],
     "butterworth": [{"order": 2, "cutoff_hz": 40.0}],
+    "spectral": [
+        {"extension": "even", "rolloff": 0.5, "cutoff_hz": 40.0},
+        {"extension": "none", "rolloff": 0.3, "cutoff_hz": 80.0},
+    ],
     "jacobi": [
         {"rule": "least_squares", "window_s": 0.05, "accel_window_s": 0.08},
         {

@@ -8,10 +8,18 @@ from tests.methods.conftest import method_cases
 
 DT = 1e-3
 FREQUENCIES_HZ = (3.0, 17.0, 61.0, 210.0)
+# A spectral estimate responds exactly H(f) only to sinusoids its extension continues
+# periodically (elsewhere the leakage of the record's ends decays over 1 / transition width):
+# that exact response is tested in test_spectral.py.
+GLOBAL = {"spectral"}
 
 
 def _linear_cases():
-    return [case for case in method_cases() if methods.method_class(case.values[0]).linear]
+    return [
+        case
+        for case in method_cases()
+        if methods.method_class(case.values[0]).linear and case.values[0] not in GLOBAL
+    ]
 
 
 @pytest.mark.parametrize(("name", "params"), _linear_cases())
