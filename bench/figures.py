@@ -22,11 +22,13 @@ import pandas as pd
 
 from diffbench import methods
 
-# Tableau 10 without its grey (kept for "outside the interior" shading) and seven dash patterns:
+# Tableau 10 without its grey (kept for "outside the interior" shading) and twelve dash patterns:
 # a method keeps its colour and its line style in every figure, and curves differ by both.
 _COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
             "#bcbd22", "#17becf")  # fmt: skip
-_LINESTYLES = ("-", "--", "-.", ":", (0, (5, 1.5, 1, 1.5, 1, 1.5)), (0, (8, 2)), (0, (1, 3)))
+_LINESTYLES = ("-", "--", "-.", ":", (0, (5, 1.5, 1, 1.5, 1, 1.5)), (0, (8, 2)), (0, (1, 3)),
+               (0, (3, 1, 1, 1)), (0, (12, 3, 3, 3)), (0, (2, 1)), (0, (6, 2, 1, 2, 1, 2)),
+               (0, (1, 1)))  # fmt: skip
 _MARKERS = ("o", "s", "^", "v", "P", "X", "h", "<", ">")
 
 #: A method is drawn on its own y range when its RMSE exceeds this multiple of the median RMSE

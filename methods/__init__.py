@@ -21,6 +21,7 @@ from diffbench.methods import (
     kalman,
     savitzky_golay,
     sindy,
+    smoothing_spline,
     spectral,
 )
 from diffbench.methods._fir import central_mask
@@ -88,6 +89,7 @@ __all__ = [
     "samples_in_span",
     "savitzky_golay",
     "sindy",
+    "smoothing_spline",
     "spectral",
     "uniform_step",
 ]
