@@ -17,6 +17,7 @@ Methods from other packages join the registry as plugins (entry points of the gr
 from diffbench.methods import (
     butterworth,
     finite_difference,
+    gaussian_kernel,
     jacobi,
     kalman,
     savitzky_golay,
@@ -75,6 +76,7 @@ __all__ = [
     "central_mask",
     "check_signal",
     "finite_difference",
+    "gaussian_kernel",
     "get",
     "jacobi",
     "kalman",
