@@ -21,6 +21,9 @@ bench: $(STAMP)
 	$(BIN)/diffbench run paper-signal --seeds $(SEEDS) --out results
 	$(BIN)/diffbench tune all paper-signal --criteria oracle,no-truth,pynumdiff --orders 1,2 \
 	  --seeds $(SEEDS) --jobs 2 --out results
+	$(BIN)/diffbench run paper-signal-4937ms --seeds $(SEEDS) --out results
+	$(BIN)/diffbench tune all paper-signal-4937ms --criteria oracle --orders 1,2 --seeds $(SEEDS) \
+	  --jobs 2 --out results
 	$(BIN)/diffbench run jacobi-influence --seeds $(SEEDS) --out results
 	$(BIN)/diffbench paper-figures --out results
 	$(BIN)/diffbench run robot-sim --seeds $(SEEDS) --jobs 2 --out results

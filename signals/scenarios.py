@@ -254,6 +254,22 @@ register_scenario(
 )
 register_scenario(
     Scenario(
+        name="paper-signal-4937ms",
+        signal=PaperSines(frequencies_hz=(4.0, 9.0, 15.0), amplitude=1.0),
+        noise=NoiseStack(_PAPER_NOISE),
+        dt_s=1e-3,
+        duration_s=4.937,
+        interior_margin_s=0.15,
+        description=(
+            "paper-signal over 4.937 s, not a whole number of periods of 4, 9 and 15 Hz: a "
+            "record whose ends do not meet, as a measured one (spectral methods cannot lean on "
+            "periodicity)."
+        ),
+        preset="paper-signal",
+    )
+)
+register_scenario(
+    Scenario(
         name="paper-signal-clean",
         signal=PaperSines(frequencies_hz=(4.0, 9.0, 15.0), amplitude=1.0),
         noise=NoiseStack(()),

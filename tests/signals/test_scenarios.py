@@ -28,6 +28,7 @@ BUILTIN = [
     "chirp-gaussian",
     "damped-gaussian",
     "paper-signal",
+    "paper-signal-4937ms",
     "paper-signal-clean",
     "paper-signal-quantised",
     "polynomial-clean",
