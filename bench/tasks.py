@@ -66,15 +66,11 @@ class Task:
                          "its truth, e.g. paper-signal)")  # fmt: skip
 
 
-@dataclass(frozen=True, eq=False)
-class SignalTask(Task):
-    """A signal scenario (``diffbench.signals``): each method differentiates the noisy samples
-    and is scored against the exact derivatives, on the common interior and on its own valid
-    samples; linear methods also get the bias and noise parts of their error."""
+class ScenarioTask(Task):
+    """A task on a registered scenario (its ``scenario`` field): named, described and preset
+    by it."""
 
-    scenario: signals.Scenario
-    listed: bool = True
-    kind: ClassVar[str] = "signal"
+    scenario: object
 
     @property
     def name(self) -> str:
@@ -87,6 +83,17 @@ class SignalTask(Task):
     @property
     def preset(self) -> str:
         return self.scenario.preset
+
+
+@dataclass(frozen=True, eq=False)
+class SignalTask(ScenarioTask):
+    """A signal scenario (``diffbench.signals``): each method differentiates the noisy samples
+    and is scored against the exact derivatives, on the common interior and on its own valid
+    samples; linear methods also get the bias and noise parts of their error."""
+
+    scenario: signals.Scenario
+    listed: bool = True
+    kind: ClassVar[str] = "signal"
 
     def score(self, method, seed):
         from diffbench.bench.frequency import decompose_error
@@ -151,7 +158,7 @@ class JacobiInfluenceTask(SignalTask):
 
 
 @dataclass(frozen=True, eq=False)
-class RobotSimTask(Task):
+class RobotSimTask(ScenarioTask):
     """A simulated 2R identification (``signals.robot2r``): each method's q̇, q̈ feed IDIM-LS;
     scored by parameter error (the truth is known), torque prediction on a fresh trajectory
     and derivative errors."""
@@ -159,18 +166,6 @@ class RobotSimTask(Task):
     scenario: object
     listed: bool = True
     kind: ClassVar[str] = "robot (simulated)"
-
-    @property
-    def name(self) -> str:
-        return self.scenario.name
-
-    @property
-    def description(self) -> str:
-        return self.scenario.description
-
-    @property
-    def preset(self) -> str:
-        return self.scenario.preset
 
     def score(self, method, seed):
         from diffbench.bench.robot import score_identification
