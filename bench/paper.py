@@ -185,6 +185,28 @@ def _error_rows(fig, grid, first_row: int, data: pd.DataFrame, names, panels, sh
                 axis.set_xlabel("time (s)")
 
 
+def _truth_row(fig, grid, top, t, interior, data: pd.DataFrame, truths) -> None:
+    """Row 1 of an error figure: each true derivative ``(column, symbol, unit)`` in ``truths``."""
+    for column, (name, symbol, unit) in enumerate(truths):
+        axis = fig.add_subplot(grid[1, column], sharex=top)
+        _shade_outside(axis, t, interior)
+        axis.plot(t, data[name], color="black", lw=1.0)
+        axis.set_ylabel(f"true {symbol} ({unit})", fontsize=8)
+        axis.tick_params(labelsize=7, labelbottom=False)
+
+
+def _finish_error_figure(fig, t, interior, heading: str, outside: str) -> None:
+    """Grid lines on every panel and the title: ``heading``, then what the grey ends are."""
+    for axis in fig.axes:
+        axis.grid(alpha=0.3)
+    margin = float(t[interior][0] - t[0]) if interior.any() else float("nan")
+    fig.suptitle(
+        f"{heading}\ngrey: the first and last {margin:g} s, {outside}; each column shares one "
+        "y range except the red-framed, off-scale panels",
+        fontsize=10,
+    )
+
+
 def _error_figure(n_methods: int, header_rows: int):
     """A figure with ``header_rows`` rows of context above ``n_methods`` error rows, two
     columns."""
@@ -212,25 +234,14 @@ def write_figure1(directory: Path, seed: int = 0) -> list[Path]:
     top.set_xlabel("time (s)", fontsize=8)
     top.tick_params(labelsize=7)
     top.legend(loc="upper right", fontsize=8, ncol=2)
-    for column, (name, symbol, unit) in enumerate(
-        (("velocity_true", "ẋ", "units/s"), ("acceleration_true", "ẍ", "units/s²"))
-    ):
-        axis = fig.add_subplot(grid[1, column], sharex=top)
-        _shade_outside(axis, t, interior)
-        axis.plot(t, data[name], color="black", lw=1.0)
-        axis.set_ylabel(f"true {symbol} ({unit})", fontsize=8)
-        axis.tick_params(labelsize=7, labelbottom=False)
+    truths = (("velocity_true", "ẋ", "units/s"), ("acceleration_true", "ẍ", "units/s²"))
+    _truth_row(fig, grid, top, t, interior, data, truths)
     panels = (("{}_velocity_error", "ẋ", "units/s"), ("{}_acceleration_error", "ẍ", "units/s²"))
     _error_rows(fig, grid, 2, data, names, panels, share=top)
-    for axis in fig.axes:
-        axis.grid(alpha=0.3)
-    margin = float(t[interior][0] - t[0]) if interior.any() else float("nan")
-    fig.suptitle(
-        f"Fig. 1: errors (estimate − truth) of every method at its paper-signal preset, paper "
-        f"signal, noise seed {seed}\ngrey: the first and last {margin:g} s, not scored; each "
-        "column shares one y range except the red-framed, off-scale panels",
-        fontsize=10,
-    )
+    _finish_error_figure(
+        fig, t, interior, f"Fig. 1: errors (estimate − truth) of every method at its "
+        f"paper-signal preset, paper signal, noise seed {seed}", "not scored",
+    )  # fmt: skip
     return [csv, figures.save_figure(fig, directory / "fig1_errors.png", tight=False)]
 
 
@@ -377,23 +388,12 @@ def write_figure5(directory: Path, scenario_name: str = "robot-sim", seed: int =
     top.set_ylabel("q1 (rad)")
     top.set_xlabel("time (s)", fontsize=8)
     top.tick_params(labelsize=7)
-    for column, (name, symbol, unit) in enumerate(
-        (("qd1_true", "q̇1", "rad/s"), ("qdd1_true", "q̈1", "rad/s²"))
-    ):
-        axis = fig.add_subplot(grid[1, column], sharex=top)
-        _shade_outside(axis, t, interior)
-        axis.plot(t, data[name], color="black", lw=1.0)
-        axis.set_ylabel(f"true {symbol} ({unit})", fontsize=8)
-        axis.tick_params(labelsize=7, labelbottom=False)
+    truths = (("qd1_true", "q̇1", "rad/s"), ("qdd1_true", "q̈1", "rad/s²"))
+    _truth_row(fig, grid, top, t, interior, data, truths)
     panels = (("qd1_{}_error", "q̇1", "rad/s"), ("qdd1_{}_error", "q̈1", "rad/s²"))
     _error_rows(fig, grid, 2, data, names, panels, share=top)
-    for axis in fig.axes:
-        axis.grid(alpha=0.3)
-    margin = float(t[interior][0] - t[0]) if interior.any() else float("nan")
-    fig.suptitle(
-        f"Fig. 5: joint 1 of `{scenario_name}`, errors (estimate − truth) of every method at its "
-        f"robot preset, noise seed {seed}\ngrey: the first and last {margin:g} s, not used; each "
-        "column shares one y range except the red-framed, off-scale panels",
-        fontsize=10,
-    )
+    _finish_error_figure(
+        fig, t, interior, f"Fig. 5: joint 1 of `{scenario_name}`, errors (estimate − truth) of "
+        f"every method at its robot preset, noise seed {seed}", "not used",
+    )  # fmt: skip
     return [csv, figures.save_figure(fig, directory / "fig5_robot_derivatives.png", tight=False)]

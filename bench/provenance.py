@@ -19,21 +19,23 @@ def provenance() -> dict[str, str]:
     from outside diffbench (see ``diffbench.methods._plugins``)."""
     from diffbench import methods
 
-    base = _fixed_provenance()
-    plugins = [f"plugin={plugin.label}" for plugin in methods.loaded_plugins()]
-    python, blas, *packages = base["versions"].split(";")
-    return {"versions": ";".join([python, blas, *plugins, *packages]), "git_rev": base["git_rev"]}
+    machine, packages, git_rev = _fixed_provenance()
+    plugins = tuple(f"plugin={plugin.label}" for plugin in methods.loaded_plugins())
+    return {"versions": ";".join(machine + plugins + packages), "git_rev": git_rev}
 
 
 @functools.cache
-def _fixed_provenance() -> dict[str, str]:
-    versions = [f"python={platform.python_version()}", f"blas={blas_kernel()}"]
+def _fixed_provenance() -> tuple[tuple[str, ...], tuple[str, ...], str]:
+    """What cannot change while the process runs: interpreter and BLAS, package versions, and
+    the git revision."""
+    machine = (f"python={platform.python_version()}", f"blas={blas_kernel()}")
+    packages = []
     for package in PACKAGES:
         try:
-            versions.append(f"{package}={metadata.version(package)}")
+            packages.append(f"{package}={metadata.version(package)}")
         except metadata.PackageNotFoundError:
-            versions.append(f"{package}=absent")
-    return {"versions": ";".join(versions), "git_rev": git_revision()}
+            packages.append(f"{package}=absent")
+    return machine, tuple(packages), git_revision()
 
 
 def blas_kernel() -> str:

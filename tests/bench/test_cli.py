@@ -144,7 +144,9 @@ def test_ctrl_c_keeps_finished_cells_and_exits_130(tmp_path, capsys, monkeypatch
     assert "2 cells computed, 2 already stored" in capsys.readouterr().out
 
 
-def test_rerun_of_tune_retunes_nothing_and_tuning_is_reproducible(tmp_path, capsys, monkeypatch):
+@pytest.fixture
+def tuning_calls(monkeypatch) -> list[str]:
+    """The methods tuning.tune is called for, in order (the calls go through)."""
     calls = []
     real = tuning.tune
 
@@ -153,6 +155,11 @@ def test_rerun_of_tune_retunes_nothing_and_tuning_is_reproducible(tmp_path, caps
         return real(*args, **kwargs)
 
     monkeypatch.setattr(tuning, "tune", counted)
+    return calls
+
+
+def test_rerun_of_tune_retunes_nothing_and_tuning_is_reproducible(tmp_path, capsys, tuning_calls):
+    calls = tuning_calls
     args = ["tune", "butterworth,finite_difference", "paper-signal", "--criteria",
             "oracle,no-truth", "--orders", "1,2", "--seeds", "2", "--no-progress"]  # fmt: skip
     assert main([*args, "--out", str(tmp_path / "a")]) == 0
@@ -171,20 +178,13 @@ def test_rerun_of_tune_retunes_nothing_and_tuning_is_reproducible(tmp_path, caps
     )  # identical, bit for bit
 
 
-def test_rerun_of_grid_retunes_and_recomputes_nothing(tmp_path, capsys, monkeypatch):
+def test_rerun_of_grid_retunes_and_recomputes_nothing(tmp_path, capsys, monkeypatch, tuning_calls):
     from diffbench.bench import grid
     from diffbench.signals.scenarios import grid_scenario_name
 
     coarse = [grid_scenario_name(kind, 0.2, 1e-2) for kind in ("gaussian", "poisson")]
     monkeypatch.setattr(grid, "task_names", lambda: coarse)
-    calls = []
-    real = tuning.tune
-
-    def counted(*args, **kwargs):
-        calls.append(args[0])
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(tuning, "tune", counted)
+    calls = tuning_calls
     args = ["grid", "--orders", "1", "--seeds", "2", "--no-progress", "--out", str(tmp_path)]
     n_methods = len(methods.available())
     assert main(args) == 0
