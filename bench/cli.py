@@ -138,7 +138,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--methods",
         type=_name_list,
         default=None,
-        help="comma-separated method names (default: every registered method)",
+        help="comma-separated method names or groups (all, native, peers; default: all)",
     )
 
     plug = _Parser(add_help=False)
@@ -171,7 +171,7 @@ def build_parser() -> argparse.ArgumentParser:
         parents=[out, work, seeds, plug],
         help="tune methods on a task's tuning seed (stored, reused), score on other seeds",
     )
-    tune.add_argument("method", help="method name, comma-separated names, or 'all'")
+    tune.add_argument("method", help="method names or groups (all, native, peers), comma-separated")
     tune.add_argument("task", help="a signal task (see `diffbench list`)")
     tune.add_argument(
         "--criteria",
@@ -199,7 +199,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     grid = commands.add_parser(
         "grid",
-        parents=[out, work, plug],
+        parents=[out, work, plug, pick],
         help="tune every method on the noise x level x step grid, score it, name the winners",
     )
     grid.add_argument("--seeds", type=_positive_int, default=10, help="scored seeds 0..N-1")
@@ -231,12 +231,15 @@ def build_parser() -> argparse.ArgumentParser:
 # --- commands ------------------------------------------------------------------------------
 def _cmd_list(args) -> None:
     print("methods (name: parameter range [tuning range] default; presets)")
-    plugins = {p.module.split(".")[0]: p for p in methods.loaded_plugins()}
+    plugins = methods.loaded_plugins()
     for name in methods.available():
         cls = methods.method_class(name)
-        shipped = plugins.get(cls.__module__.split(".")[0])
-        origin = f"; plugin {shipped.label}" if shipped else ""
-        print(f"  {name}  ({'linear' if cls.linear else 'nonlinear'}; {cls.reference}{origin})")
+        shipped = [p for p in plugins if f"{cls.__module__}.".startswith(f"{p.module}.")]
+        origin = f"; plugin {shipped[0].label}" if shipped else ""
+        kind = "linear" if cls.linear else "nonlinear"
+        print(f"  {name}  ({kind}; runs {methods.package_of(name)}; {cls.reference}{origin})")
+        if cls.second_derivative != "native":
+            print(f"      ẍ: {cls.second_derivative}")
         for spec in methods.params_of(cls):
             tune = ""
             if spec.tune_low is not None:
@@ -249,6 +252,8 @@ def _cmd_list(args) -> None:
         for key, chosen in cls.presets.items():
             values = ", ".join(f"{k}={v!r}" for k, v in chosen.values.items())
             print(f"      preset {key} (by {chosen.by}): {values}  ({chosen.source})")
+    for prefix, why in methods.missing_peers().items():
+        print(f"  {prefix}.*  not available: {why}")
     print("tasks (diffbench run TASK)")
     for name in available_tasks(listed_only=True):
         task = get_task(name)
@@ -272,11 +277,31 @@ def _task(name: str):
         return get_task(name)
 
 
+GROUPS = {
+    "all": "every registered method",
+    "native": "the methods diffbench implements",
+    "peers": "the methods other packages implement (the peers' adapters, plugins)",
+}
+
+
+def _expand(name: str) -> list[str]:
+    """A method name, or every method of a group (:data:`GROUPS`)."""
+    if name not in GROUPS:
+        return [name]
+    everything = methods.available()
+    if name == "all":
+        return everything
+    native = [n for n in everything if methods.package_of(n).startswith("diffbench ")]
+    return native if name == "native" else [n for n in everything if n not in native]
+
+
 def _method_names(names) -> list[str] | None:
+    """Registered names of ``names`` (each a method or a group: all, native, peers)."""
     if names is None:
         return None
     with user_input("--methods: "):
-        return [methods.method_class(name).name for name in names]
+        expanded = runner.unique(n for name in names for n in _expand(name))
+        return [methods.method_class(name).name for name in expanded]
 
 
 def _open_store(out: Path) -> Store:
@@ -387,7 +412,7 @@ def _cmd_tune(args) -> None:
             f"--tuning-seed {args.tuning_seed} is among the scored seeds "
             f"0..{seeds[-1]}; choose one >= {len(seeds)}"
         )
-    names = methods.available() if args.method == "all" else _method_names(_name_list(args.method))
+    names = _method_names(_name_list(args.method))
     data_only = [c for c in args.criteria if c != "oracle"]
     if data_only:
         _check_cutoff(args.cutoff_hz, task)
@@ -437,7 +462,7 @@ def _cmd_grid(args) -> None:
     from diffbench.bench import grid
 
     store = _open_store(args.out)
-    found, _ = _tune(grid.tuning_jobs(args.orders), store, args)
+    found, _ = _tune(grid.tuning_jobs(args.orders, _method_names(args.methods)), store, args)
     cells = grid.cells(found, range(args.seeds))
     _say(_run_cells(cells, store, args))
     store.refresh()

@@ -22,13 +22,25 @@ import pandas as pd
 
 from diffbench import methods
 
-# Tableau 10 without its grey (kept for "outside the interior" shading) and twelve dash patterns:
-# a method keeps its colour and its line style in every figure, and curves differ by both.
+# Tableau 10 without its grey (kept for "outside the interior" shading), then Matplotlib's
+# tab20b and tab20c, and as many dash patterns: a method keeps its colour and its line style in
+# every figure, and curves differ by both (38 methods before a colour or a pattern repeats).
 _COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
-            "#bcbd22", "#17becf")  # fmt: skip
+            "#bcbd22", "#17becf",
+            "#393b79", "#5254a3", "#6b6ecf", "#9c9ede", "#637939", "#8ca252", "#b5cf6b",
+            "#cedb9c", "#8c6d31", "#bd9e39", "#e7ba52", "#e7cb94", "#843c39", "#ad494a",
+            "#d6616b", "#e7969c", "#7b4173", "#a55194", "#ce6dbd", "#de9ed6",
+            "#3182bd", "#6baed6", "#e6550d", "#fd8d3c", "#31a354", "#74c476", "#756bb1",
+            "#9e9ac8", "#636363")  # fmt: skip
 _LINESTYLES = ("-", "--", "-.", ":", (0, (5, 1.5, 1, 1.5, 1, 1.5)), (0, (8, 2)), (0, (1, 3)),
                (0, (3, 1, 1, 1)), (0, (12, 3, 3, 3)), (0, (2, 1)), (0, (6, 2, 1, 2, 1, 2)),
-               (0, (1, 1)))  # fmt: skip
+               (0, (1, 1)),
+               *((0, (on, off)) for on in (4, 7, 10, 14) for off in (1.5, 3.5, 5)),
+               *((0, (on, 2, 1, 2, 1, 2, 1, 2)) for on in (4, 8, 12)),
+               *((0, (on, 1.5, 3, 1.5)) for on in (6, 9, 13)),
+               *((0, (1, 2, on, 2)) for on in (5, 9, 15)),
+               (0, (2, 4)), (0, (16, 4, 2, 4)), (0, (3, 3, 3, 6)), (0, (20, 5)),
+               (0, (6, 3, 6, 6, 1, 3)))  # fmt: skip
 _MARKERS = ("o", "s", "^", "v", "P", "X", "h", "<", ">")
 
 #: A method is drawn on its own y range when its RMSE exceeds this multiple of the median RMSE

@@ -36,12 +36,15 @@ def task_names() -> list[str]:
     return grid_scenario_names()
 
 
-def tuning_jobs(orders: Sequence[int] = (1, 2)) -> list[TuningJob]:
-    """Every registered method, for each order, on each grid task (oracle, seed 10000)."""
+def tuning_jobs(
+    orders: Sequence[int] = (1, 2), names: Sequence[str] | None = None
+) -> list[TuningJob]:
+    """Each method of ``names`` (default: every registered one), for each order, on each grid
+    task (oracle, seed 10000)."""
     return [
         TuningJob(task, name, "oracle", int(order), TUNING_SEED, None, BUDGET)
         for task in task_names()
-        for name in methods.available()
+        for name in (names or methods.available())
         for order in orders
     ]
 
@@ -108,6 +111,13 @@ def winners(rows: pd.DataFrame, order: int = 2) -> pd.DataFrame:
     return pd.DataFrame(records)
 
 
+def packages_line(rows: pd.DataFrame) -> str:
+    """``butterworth (diffbench 0.1.0), pynumdiff.spectraldiff (pynumdiff 0.3), ...``: each
+    method in the rows with the package and version stored with its cells."""
+    pairs = rows[["method", "package"]].drop_duplicates().sort_values(["method", "package"])
+    return ", ".join(f"{m} ({p})" for m, p in zip(pairs["method"], pairs["package"], strict=True))
+
+
 def write_winners(rows: pd.DataFrame, directory: Path) -> list[Path]:
     """``winners_velocity`` and ``winners_acceleration`` (Markdown grid + full CSV)."""
     written = []
@@ -143,7 +153,8 @@ def write_winners(rows: pd.DataFrame, directory: Path) -> list[Path]:
             "the smallest difference the test detects 80 % of the time). `†`: the 200 Hz "
             "component of the noise aliases to 0 Hz at this step (its samples are all zero), "
             "only the other components remain. The signal: sin 2π4t + sin 2π9t + sin 2π15t "
-            "over 0.93 s (not a whole number of periods)."
+            "over 0.93 s (not a whole number of periods).\n\nMethods and the packages that "
+            "computed them: " + packages_line(rows) + "."
         )
         written += tables.write_report(directory, stem, table, pd.DataFrame(shown), title, legend)
     return written

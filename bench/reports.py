@@ -88,6 +88,8 @@ def ranking_report(cells: pd.DataFrame, directory: Path) -> list[Path]:
             {
                 "rank": range(1, len(labelled) + 1),
                 "method": labelled["method"],
+                "package": labelled["package"],
+                "ẍ": [tables.xddot_source(m) for m in labelled["method"]],
                 "setting": labelled["setting"],
                 "parameters": labelled["parameters"],
                 "RMSE": [

@@ -152,7 +152,7 @@ def _dfki_equations(method: Method, run, spec: DfkiCrossValidation):
 
 
 @functools.lru_cache(maxsize=8)
-def _dfki_run(index: int, dt_s: float):
+def dfki_run(index: int, dt_s: float):
     from diffbench.signals import dfki
 
     return dfki.load_dfki_run(index, dt_s)
@@ -170,12 +170,12 @@ def score_dfki_fold(method: Method, spec: DfkiCrossValidation, held_out: int):
     for index in range(dfki.DFKI_RUNS):
         if index == held_out:
             continue
-        observation, torques, _ = _dfki_equations(method, _dfki_run(index, spec.dt_s), spec)
+        observation, torques, _ = _dfki_equations(method, dfki_run(index, spec.dt_s), spec)
         training_w.append(parallel_decimation(observation, factor)[EDGE_SAMPLES:-EDGE_SAMPLES])
         training_y.append(parallel_decimation(torques, factor)[EDGE_SAMPLES:-EDGE_SAMPLES])
     result = idim_ls(np.concatenate(training_w), np.concatenate(training_y),
                      dfki.PENDULUM_PARAMETER_NAMES)  # fmt: skip
-    run = _dfki_run(held_out, spec.dt_s)
+    run = dfki_run(held_out, spec.dt_s)
     observation, torques, (q, qd, qdd, chosen) = _dfki_equations(method, run, spec)
     measured = parallel_decimation(torques, factor)[EDGE_SAMPLES:-EDGE_SAMPLES]
     predicted = parallel_decimation(observation @ result.estimate, factor)

@@ -124,6 +124,7 @@ def run(
             role=cell.role.as_dict(),
             scores=scores,
             elapsed_s=elapsed,
+            package=methods.package_of(cell.method),
         )
         computed += stored
         others += not stored

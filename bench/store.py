@@ -310,6 +310,8 @@ def _check_cell(record: dict) -> None:
                        ("scores", list)):  # fmt: skip
         if not isinstance(record.get(name), kind):
             raise ValueError(f"`{name}` must be a {kind.__name__}")
+    if not isinstance(record.get("package", ""), str):
+        raise ValueError("`package` must be a str")
     seed = record.get("seed")
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ValueError("`seed` must be an integer >= 0")
@@ -370,13 +372,14 @@ class Store:
 
     def add_cell(self, *, task: str, method: str, params: Mapping[str, Any], seed: int,
                  role: Mapping[str, Any], scores: list[dict[str, Any]],
-                 elapsed_s: float) -> bool:  # fmt: skip
-        """Store one finished cell; False if another writer stored it first."""
+                 elapsed_s: float, package: str = "unknown") -> bool:  # fmt: skip
+        """Store one finished cell; False if another writer stored it first. ``package``: the
+        distribution and version whose code computed it (``methods.package_of``)."""
         key = cell_key(task, method, params, seed, role)
         record = {
             "key": key, "task": task, "method": method, "params": dict(params),
             "seed": int(seed), "role": dict(role), "finished_utc": utc_now(),
-            "elapsed_s": round(float(elapsed_s), 6),
+            "elapsed_s": round(float(elapsed_s), 6), "package": str(package),
             "scores": [[int(s["order"]), str(s["region"]), str(s["metric"]),
                         _number(s["value"])] for s in scores],
         }  # fmt: skip
@@ -395,7 +398,8 @@ class Store:
     def cells_frame(self, task: str | Iterable[str] | None = None) -> pd.DataFrame:
         """Tidy rows (one per cell and score) of the given task(s), with role and provenance
         columns: task, method, params (canonical JSON), seed, role (canonical JSON), the role
-        fields, order, region, metric, value, run, git_rev, finished_utc, elapsed_s."""
+        fields, order, region, metric, value, run, git_rev, finished_utc, elapsed_s, package (the
+        distribution and version that computed the cell; "unknown" in older records)."""
         wanted = None if task is None else ({task} if isinstance(task, str) else set(task))
         columns: dict[str, list] = {name: [] for name in FRAME_COLUMNS}
         for record in self.cells.records.values():
@@ -414,6 +418,7 @@ class Store:
                 run.get("git_rev", "unknown"),
                 record["finished_utc"],
                 record["elapsed_s"],
+                record.get("package", "unknown"),
             )
             for order, region, metric, value in record["scores"]:
                 for name, item in zip(_FIXED, fixed, strict=True):
@@ -444,7 +449,7 @@ class Store:
 
 
 _FIXED = ("task", "method", "params", "seed", "role", *ROLE_FIELDS, "run", "git_rev",
-          "finished_utc", "elapsed_s")  # fmt: skip
+          "finished_utc", "elapsed_s", "package")  # fmt: skip
 FRAME_COLUMNS = (*_FIXED, "order", "region", "metric", "value")
 
 

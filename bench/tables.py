@@ -126,8 +126,17 @@ def summarise(rows: pd.DataFrame, keys: Sequence[str] = ENTRY_KEYS) -> pd.DataFr
 
 def entries(rows: pd.DataFrame) -> pd.DataFrame:
     """One row per entry: method, params, role and the role's columns."""
-    columns = [*ENTRY_KEYS, *ROLE_COLUMNS]
+    columns = [*ENTRY_KEYS, *ROLE_COLUMNS, "package"]
     return rows[columns].drop_duplicates(ENTRY_KEYS).reset_index(drop=True)
+
+
+def xddot_source(method: str) -> str:
+    """How the method obtains ẍ, for a table: ``native`` or ``ẋ differentiated again``."""
+    try:
+        cls = methods.method_class(method)
+    except ValueError:  # a plugin not loaded now
+        return "?"
+    return "native" if cls.second_derivative == "native" else "ẋ differentiated again"
 
 
 def wide_table(rows: pd.DataFrame, columns) -> pd.DataFrame:
@@ -180,7 +189,8 @@ def markdown_table(frame: pd.DataFrame) -> str:
 
 def display_frame(wide: pd.DataFrame, columns) -> pd.DataFrame:
     """The people's view of :func:`wide_table`: method, setting, parameters, ``mean ± CI``."""
-    shown = wide[["method", "setting", "parameters"]].copy()
+    shown = wide[["method", "package", "setting", "parameters"]].copy()
+    shown.insert(2, "ẍ", [xddot_source(m) for m in wide["method"]])
     for label, metric, _, _ in columns:
         if metric == "coverage":
             shown[label] = [f"{v:.3f}" if np.isfinite(v) else "—" for v in wide[f"{label} mean"]]

@@ -16,6 +16,7 @@ Adding a kind of benchmark is one subclass and one :func:`register_task` call.
 from __future__ import annotations
 
 import functools
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,9 +44,35 @@ class Task:
     listed: bool = True
 
     def lineup(self, method_names: Sequence[str] | None = None) -> list[Entry]:
-        """Every method named (default: every registered one) at this task's preset."""
+        """Every method named (default: every registered one) at this task's preset, less
+        those whose preset refuses records as long as this task's (see :meth:`refusal`)."""
         names = list(method_names) if method_names else methods.available()
-        return [preset_entry(name, self.preset) for name in names]
+        entries = []
+        for name in names:
+            entry = preset_entry(name, self.preset)
+            why = self.refusal(methods.get(name, **entry.params))
+            if why:
+                print(f"{name}: not run on {self.name}: {why}", file=sys.stderr)
+                continue
+            entries.append(entry)
+        return entries
+
+    def longest_record(self) -> tuple[int, float] | None:
+        """``(samples, dt_s)`` of the longest record a method is handed (None: unknown)."""
+        return None
+
+    def refusal(self, method: methods.Method) -> str | None:
+        """Why ``method`` cannot run this task (a record longer than its ``max_samples``, e.g.
+        a dense O(N³) peer), or None."""
+        record = self.longest_record()
+        if record is None:
+            return None
+        samples, dt = record
+        longest = method.max_samples(dt)
+        if longest is not None and samples > longest:
+            return (f"{samples} samples, it accepts at most {longest} "
+                    f"({method.max_samples_reason})")  # fmt: skip
+        return None
 
     def seeds(self, count: int | None) -> range:
         """The seeds 0..count-1 (``default_seeds`` if None); ValueError past ``max_seeds``."""
@@ -113,6 +140,10 @@ class SignalTask(ScenarioTask):
     def tuning_data(self, seed):
         return self.scenario.realise(seed)
 
+    def longest_record(self):
+        realisation = self.scenario.realise(0)
+        return realisation.x.shape[0], realisation.dt_s
+
     def report(self, cells, tunings, directory):
         return reports.signal_report(self.name, self.description, cells, tunings, directory)
 
@@ -172,6 +203,10 @@ class RobotSimTask(ScenarioTask):
 
         return score_identification(method, self.scenario, seed)
 
+    def longest_record(self):
+        realisation = self.scenario.realise(0)
+        return realisation.q.shape[0], realisation.dt_s
+
     def report(self, cells, tunings, directory):
         return reports.robot_sim_report(self.scenario, cells, directory)
 
@@ -208,6 +243,13 @@ class DfkiTask(Task):
         from diffbench.bench.robot import score_dfki_fold
 
         return score_dfki_fold(method, self.spec, seed)
+
+    def longest_record(self):
+        from diffbench.bench.robot import dfki_run
+        from diffbench.signals import dfki
+
+        runs = [dfki_run(index, self.spec.dt_s) for index in range(dfki.DFKI_RUNS)]
+        return max(run.q.shape[0] for run in runs), self.spec.dt_s
 
     def report(self, cells, tunings, directory):
         return reports.dfki_report(cells, directory)

@@ -12,17 +12,47 @@ from diffbench import methods
 
 DT = 1e-3
 
+SIZE_CAPS = {
+    "derivative.savitzky_golay": (10_000, "a Python loop over samples: ~0.13 s per 1e3"),
+    "pynumdiff.tvrdiff": (10_000, "a cvxpy problem per call: ~0.1 s per 1e3, superlinear"),
+    "pynumdiff.polydiff": (100_000, "~0.09 s per 1e3 samples"),
+    "pynumdiff.rtsdiff": (100_000, "a Python loop over samples: ~0.05 s per 1e3"),
+    "derivative.spline": (100_000, "~0.01 s per 1e3 and superlinear"),
+    "pynumdiff.splinediff": (100_000, "~0.01 s per 1e3 and superlinear"),
+}
+"""Methods timed only up to a record length (and why): the slow ones would take minutes at 1e6
+samples. A method's own ``max_samples`` caps it too (the dense O(N³) peers)."""
+
+
+def size_cap(name: str, dt: float = DT) -> tuple[int | None, str]:
+    """The longest record method ``name`` is timed on (None: no cap) and why."""
+    method = timing_instance(name)
+    own = method.max_samples(dt)
+    cap, why = SIZE_CAPS.get(name, (None, ""))
+    if own is not None and (cap is None or own < cap):
+        return own, method.max_samples_reason
+    return cap, why
+
+
+def timing_instance(name: str) -> methods.Method:
+    """Method ``name`` at its paper-signal preset (its class defaults if it has none)."""
+    has_preset = "paper-signal" in methods.method_class(name).presets
+    return methods.preset(name, "paper-signal" if has_preset else methods.DEFAULT_PRESET)
+
 
 def throughput(sizes=(10_000, 100_000, 1_000_000), repeats: int = 3) -> pd.DataFrame:
     """Samples per second of each method on a seeded noisy 4 Hz sine of each size (the best of
     ``repeats`` runs after a warm-up; orders 0, 1, 2 estimated), and the growth of the time per
-    sample from the smallest to the largest size (1 = linear)."""
+    sample from the smallest to the largest size timed (1 = linear). Sizes past a method's
+    :func:`size_cap` are left out (NaN)."""
     records = []
     for name in methods.available():
-        method = methods.preset(name, "paper-signal")
-        method(np.zeros(5000), DT)  # warm-up: lazy imports, kernel caches
+        method = timing_instance(name)
+        cap, _ = size_cap(name)
+        timed = [size for size in sizes if cap is None or size <= cap]
+        method(np.zeros(min(5000, cap or 5000)), DT)  # warm-up: lazy imports, kernel caches
         times = {}
-        for size in sizes:
+        for size in timed:
             t = np.arange(size) * DT
             x = np.sin(2 * np.pi * 4 * t) + 0.01 * np.random.default_rng(size).standard_normal(size)
             best = np.inf
@@ -31,10 +61,13 @@ def throughput(sizes=(10_000, 100_000, 1_000_000), repeats: int = 3) -> pd.DataF
                 method(x, DT)
                 best = min(best, time.perf_counter() - start)
             times[size] = best
-            records.append({"method": name, "samples": size, "seconds": best,
+            records.append({"method": name, "package": methods.package_of(name),
+                            "samples": size, "seconds": best,
                             "samples_per_s": size / best})  # fmt: skip
-        growth = (times[sizes[-1]] / sizes[-1]) / (times[sizes[0]] / sizes[0])
-        for record in records[-len(sizes) :]:
+        if not timed:
+            continue
+        growth = (times[timed[-1]] / timed[-1]) / (times[timed[0]] / timed[0])
+        for record in records[-len(timed) :]:
             record["growth_per_sample"] = growth
     return pd.DataFrame(records)
 
@@ -44,13 +77,23 @@ def write_throughput(directory: Path, table: pd.DataFrame) -> list[Path]:
     csv, markdown = directory / "throughput.csv", directory / "throughput.md"
     table.to_csv(csv, index=False)
     sizes = sorted(table["samples"].unique())
-    lines = ["# Throughput (samples/s, orders 0-2, paper-signal presets, best of repeats)", "",
-             "Time per sample at the largest size over that at the smallest: 1 is linear growth.",
-             "", "| method | " + " | ".join(f"{s:.0e}" for s in sizes) + " | growth |",
-             "|---|" + "---|" * (len(sizes) + 1)]  # fmt: skip
+    lines = ["# Throughput (samples/s, orders 0-2, paper-signal presets or class defaults, best "
+             "of repeats)", "",
+             "Time per sample at the largest size timed over that at the smallest: 1 is linear "
+             "growth. — : not timed at that size (see the caps below).",
+             "", "| method | package | " + " | ".join(f"{s:.0e}" for s in sizes) + " | growth |",
+             "|---|---|" + "---|" * (len(sizes) + 1)]  # fmt: skip
+    caps = []
     for name, group in table.groupby("method"):
         rates = group.set_index("samples")["samples_per_s"]
-        cells = " | ".join(f"{rates[s]:.3g}" for s in sizes)
-        lines.append(f"| {name} | {cells} | {group['growth_per_sample'].iloc[0]:.2f} |")
+        cells = " | ".join(f"{rates[s]:.3g}" if s in rates.index else "—" for s in sizes)
+        package = group["package"].iloc[0]
+        lines.append(f"| {name} | {package} | {cells} | "
+                     f"{group['growth_per_sample'].iloc[0]:.2f} |")  # fmt: skip
+        cap, why = size_cap(name)
+        if cap is not None and cap < max(sizes):
+            caps.append(f"- {name}: timed up to {cap:g} samples ({why})")
+    if caps:
+        lines += ["", "Capped:", *caps]
     markdown.write_text("\n".join([*lines, ""]), encoding="utf-8")
     return [markdown, csv]

@@ -18,12 +18,14 @@ from diffbench.methods import (
     butterworth,
     finite_difference,
     gaussian_kernel,
+    gaussian_process,
     jacobi,
     kalman,
     savitzky_golay,
     sindy,
     smoothing_spline,
     spectral,
+    total_variation,
 )
 from diffbench.methods._fir import central_mask
 from diffbench.methods._plugins import (
@@ -32,6 +34,7 @@ from diffbench.methods._plugins import (
     Plugin,
     load_plugin,
     loaded_plugins,
+    missing_peers,
 )
 from diffbench.methods._registry import (
     DEFAULT_PRESET,
@@ -44,6 +47,7 @@ from diffbench.methods._registry import (
     available,
     get,
     method_class,
+    package_of,
     param,
     params_of,
     preset,
@@ -77,12 +81,15 @@ __all__ = [
     "check_signal",
     "finite_difference",
     "gaussian_kernel",
+    "gaussian_process",
     "get",
     "jacobi",
     "kalman",
     "load_plugin",
     "loaded_plugins",
     "method_class",
+    "missing_peers",
+    "package_of",
     "param",
     "params_of",
     "preset",
@@ -93,5 +100,6 @@ __all__ = [
     "sindy",
     "smoothing_spline",
     "spectral",
+    "total_variation",
     "uniform_step",
 ]

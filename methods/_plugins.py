@@ -45,6 +45,7 @@ class Plugin:
 
 
 _LOADED: dict[str, Plugin] = {}
+_MISSING: dict[str, str] = {}
 _LOCK = threading.RLock()
 _STATE = {"automatic": False}
 
@@ -52,6 +53,26 @@ _STATE = {"automatic": False}
 def loaded_plugins() -> list[Plugin]:
     """The plugins loaded so far, in load order."""
     return list(_LOADED.values())
+
+
+def note_missing(prefix: str, hint: str) -> None:
+    """Record that the methods named ``prefix.*`` are absent because a package is not
+    installed, and how to get it (a plugin calls this instead of registering them)."""
+    _MISSING[prefix] = hint
+
+
+def missing_peers() -> dict[str, str]:
+    """``{prefix: how to install}`` of the plugins whose package is not installed."""
+    load_automatic_plugins()
+    return dict(_MISSING)
+
+
+def missing_hint(name: str) -> str:
+    """How to get method ``name`` if its plugin noted its package missing, else ``""``."""
+    prefix = name.split(".")[0]
+    if "." in name and prefix in _MISSING:
+        return f"{prefix}'s methods are not installed: {_MISSING[prefix]}"
+    return ""
 
 
 def load_plugin(module: str, found_by: str = "--plugin") -> Plugin:

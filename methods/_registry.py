@@ -12,12 +12,13 @@ import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from importlib import metadata
 from typing import Any, ClassVar
 
 import numpy as np
 
 from diffbench.methods._fir import apply_central_fir, fir_response
-from diffbench.methods._plugins import load_automatic_plugins
+from diffbench.methods._plugins import load_automatic_plugins, missing_hint
 from diffbench.methods._validation import check_dt, check_orders, check_signal
 
 _REGISTRY: dict[str, type[Method]] = {}
@@ -167,7 +168,12 @@ class Method:
     ``min_samples(dt)`` (shortest signal they accept; called first, so it must refuse by name
     whatever it cannot compute), ``check_step(dt)`` (checks that depend on the sampling step,
     also run by :meth:`frequency_response`) and ``exact_degree(order)`` (polynomial degree
-    reproduced exactly).
+    reproduced exactly) and ``max_samples(dt)`` (longest signal they accept, for methods whose
+    cost grows too fast to run long records).
+
+    ``package`` names the distribution whose implementation runs (``None``: the one that
+    registered the class, see :func:`package_of`); ``second_derivative`` says how ẍ is
+    obtained when the implementation has no second derivative of its own.
     """
 
     name: ClassVar[str] = ""
@@ -175,6 +181,8 @@ class Method:
     time_symmetric: ClassVar[bool] = True
     presets: ClassVar[Mapping[str, Preset]] = {}
     reference: ClassVar[str] = ""
+    package: ClassVar[str | None] = None
+    second_derivative: ClassVar[str] = "native"
 
     def __post_init__(self) -> None:
         for spec in params_of(type(self)):
@@ -186,6 +194,12 @@ class Method:
         dt = check_dt(dt)
         # the signal's length first: it is cheap, and check_step may build taps
         x, dt = check_signal(x, dt, min_samples=self.min_samples(dt))
+        longest = self.max_samples(dt)
+        if longest is not None and x.shape[0] > longest:
+            raise ValueError(
+                f"`x` has {x.shape[0]} samples on axis 0; {self.name} accepts at most {longest} "
+                f"({self.max_samples_reason}); split the record or pick another method"
+            )
         self.check_step(dt)
         values, valid = self._estimate(x, dt, orders)
         return Estimate(values=values, valid=valid)
@@ -196,6 +210,12 @@ class Method:
 
     def min_samples(self, dt: float) -> int:
         return 2
+
+    max_samples_reason: ClassVar[str] = ""
+
+    def max_samples(self, dt: float) -> int | None:
+        """Longest signal accepted (``None``: no limit); ``max_samples_reason`` says why."""
+        return None
 
     def check_step(self, dt: float) -> None:
         return None
@@ -289,6 +309,21 @@ def register(name: str):
     return decorate
 
 
+def package_of(name: str) -> str:
+    """The distribution and version whose code computes method ``name``, e.g.
+    ``"diffbench 0.1.0"`` or ``"pynumdiff 0.3"`` (a peer run through an adapter)."""
+    cls = method_class(name)
+    package = cls.package
+    if package is None:
+        top = cls.__module__.split(".")[0]
+        names = metadata.packages_distributions().get(top, [])
+        package = "diffbench" if top == "diffbench" else (names[0] if names else top)
+    try:
+        return f"{package} {metadata.version(package)}"
+    except metadata.PackageNotFoundError:
+        return f"{package} (version unknown)"
+
+
 def available() -> list[str]:
     """Names of the registered methods, sorted (plugins included, see ``methods._plugins``)."""
     load_automatic_plugins()
@@ -301,8 +336,10 @@ def method_class(name: str) -> type[Method]:
     try:
         return _REGISTRY[name]
     except KeyError:
+        hint = missing_hint(name)
         raise ValueError(
-            f"unknown method {name!r}; available: {', '.join(sorted(_REGISTRY))}"
+            f"unknown method {name!r}; "
+            + (hint if hint else f"available: {', '.join(sorted(_REGISTRY))}")
         ) from None
 
 

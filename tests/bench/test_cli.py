@@ -38,7 +38,11 @@ def test_run_writes_store_and_tables_then_resumes(tmp_path, capsys):
     assert main(args) == 0
     assert "4 cells computed, 0 already stored" in capsys.readouterr().out
     table = (tmp_path / "paper-signal" / "rmse.md").read_text()
-    assert "| butterworth       | preset (paper) | order=6, cutoff_hz=25 " in table
+    from importlib.metadata import version
+
+    row = (f"| butterworth       | diffbench {version('diffbench')} | native | preset (paper) | "
+           "order=6, cutoff_hz=25 ")  # fmt: skip
+    assert row in table
     assert "RMSE ẍ interior" in table and "Presets —" not in table
     assert main([*args[:3], "3", *args[4:]]) == 0
     assert "2 cells computed, 4 already stored" in capsys.readouterr().out

@@ -62,7 +62,8 @@ def test_sigma_is_one_standard_deviation(scenario):
 
 
 def test_every_method_identifies_the_well_excited_parameters_within_a_few_percent(scenario):
-    for name in methods.available():
+    # every method with a robot preset (the peers run robot tasks at their class defaults)
+    for name in [n for n in methods.available() if "robot" in methods.method_class(n).presets]:
         (cell,) = preset_entry(name, "robot").cells("robot-sim-short", [0])
         rows = compute_cell(cell)
         values = {row["metric"]: row["value"] for row in rows if row["order"] == 0}

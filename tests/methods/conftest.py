@@ -9,6 +9,10 @@ EXTRA = {
     "savitzky_golay": [{"window_s": 0.05, "degree": 2}, {"window_s": 0.03, "degree": 5}],
     "sindy_smoothing": [{"window_s": 0.05, "degree": 5, "accuracy_order": 4}],
     "butterworth": [{"order": 2, "cutoff_hz": 40.0}],
+    "gaussian_process": [
+        {"length_scale_s": 0.003, "noise_ratio": 1.0},
+        {"length_scale_s": 0.3, "noise_ratio": 0.01},
+    ],
     "spectral": [
         {"extension": "even", "rolloff": 0.5, "cutoff_hz": 40.0},
         {"extension": "none", "rolloff": 0.3, "cutoff_hz": 80.0},

@@ -49,11 +49,28 @@ def test_finite_output_of_the_right_shape(name, params):
         assert estimate.coverage(order) > 0.5
 
 
+# Peers whose method does not reproduce a constant (measured, and checked to stay so): a
+# zero-mean Gaussian process or Kalman prior pulls the record towards 0 where data are few.
+CONSTANT_NOT_REPRODUCED = {
+    "derivative.kalman": "derivative's Kalman smoother",
+    "derivative.kernel": "derivative's zero-mean Gaussian process",
+    "pynumdiff.rbfdiff": "PyNumDiff's regularised radial-basis fit (no constant term)",
+}
+
+
 @pytest.mark.parametrize(("name", "params"), method_cases())
 def test_constant_input_gives_zero_derivatives(name, params):
     method = methods.get(name, **params)
     estimate = method(np.full(_length(method, 1500), 3.25), DT)
     valid = estimate.valid
+    if name in CONSTANT_NOT_REPRODUCED:
+        reproduced = (
+            np.allclose(estimate[0][valid[0]], 3.25, rtol=1e-12, atol=0)
+            and np.allclose(estimate[1][valid[1]], 0.0, rtol=0, atol=1e-9 / DT)
+            and np.allclose(estimate[2][valid[2]], 0.0, rtol=0, atol=1e-9 / DT**2)
+        )
+        assert not reproduced, f"{name} now reproduces constants: drop it from the list"
+        return
     np.testing.assert_allclose(estimate[0][valid[0]], 3.25, rtol=1e-12)
     # Rounding of 3.25 times taps of size up to ~1/dt^n: the bound scales with dt^-n.
     np.testing.assert_allclose(estimate[1][valid[1]], 0.0, atol=1e-9 / DT)

@@ -10,8 +10,10 @@ DT = 1e-3
 FREQUENCIES_HZ = (3.0, 17.0, 61.0, 210.0)
 # A spectral estimate responds exactly H(f) only to sinusoids its extension continues
 # periodically (elsewhere the leakage of the record's ends decays over 1 / transition width):
-# that exact response is tested in test_spectral.py.
-GLOBAL = {"spectral"}
+# that exact response is tested in test_spectral.py. A Gaussian process takes the record's
+# least-squares line out before a filter passing 0 Hz at H(0) < 1, so a sinusoid comes out as
+# H plus (1 - H(0)) times the sinusoid's own line: tested in test_gaussian_process.py.
+GLOBAL = {"spectral", "gaussian_process"}
 
 
 def _linear_cases():

@@ -47,7 +47,10 @@ def test_an_installed_entry_point_is_listed_run_and_stored_with_its_version(tmp_
     env = {"PYTHONPATH": str(site)}
     listed = _diffbench("list", env=env)
     assert listed.returncode == 0, listed.stderr
-    assert f"{NAME}  (linear; Hamming (1989); plugin diffbench_example_plugin " in listed.stdout
+    assert (
+        f"{NAME}  (linear; runs diffbench-example-plugin 0.1.0; Hamming (1989); plugin "
+        "diffbench_example_plugin "
+    ) in listed.stdout
     assert "(diffbench-example-plugin 0.1.0)" in listed.stdout
     out = tmp_path / "out"
     args = ["run", "paper-signal", "--seeds", "2", "--methods", f"{NAME},butterworth",

@@ -1,0 +1,228 @@
+"""The Gaussian-process methods against exact answers: scikit-learn's posterior and its finite
+differences, a dense numpy posterior, sinusoids through the stated response, analytic
+derivatives of a smooth signal, the noise level of synthetic data, and the inputs refused."""
+
+import numpy as np
+import pytest
+from sklearn.gaussian_process import GaussianProcessRegressor
+from sklearn.gaussian_process.kernels import RBF
+
+from diffbench import methods
+from diffbench.methods.gaussian_process import (
+    fit_hyperparameters,
+    gaussian_process_response,
+    posterior_derivatives,
+    rbf_covariance,
+)
+
+DT = 1e-3
+
+
+def _line(x, dt):
+    centred = (np.arange(x.size) - (x.size - 1) / 2) * dt
+    slope = np.sum(centred * (x - x.mean())) / np.sum(centred**2)
+    return x.mean() + slope * centred, slope
+
+
+def _dense_posterior(x, dt, length_scale_s, noise_ratio):
+    """The posterior mean and its derivatives by a dense solve: the slow, obvious version."""
+    line, slope = _line(x, dt)
+    t = np.arange(x.size) * dt
+    lag = t[:, None] - t[None, :]
+    gram = rbf_covariance(lag, length_scale_s, 0) + noise_ratio**2 * np.eye(x.size)
+    alpha = np.linalg.solve(gram, x - line)
+    return {
+        0: rbf_covariance(lag, length_scale_s, 0) @ alpha + line,
+        1: rbf_covariance(lag, length_scale_s, 1) @ alpha + slope,
+        2: rbf_covariance(lag, length_scale_s, 2) @ alpha,
+    }
+
+
+def _noisy_record(n, seed=0):
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * DT
+    return np.sin(2 * np.pi * 4 * t) + 0.5 * t + 0.1 * rng.standard_normal(n)
+
+
+def test_kernel_derivatives_equal_finite_differences_of_the_kernel():
+    lag, ell, step = np.linspace(-0.05, 0.05, 41), 0.013, 1e-6
+    for order in (1, 2):
+        lower = rbf_covariance(lag - step, ell, order - 1)
+        upper = rbf_covariance(lag + step, ell, order - 1)
+        numeric = (upper - lower) / (2 * step)
+        exact = rbf_covariance(lag, ell, order)
+        np.testing.assert_allclose(exact, numeric, rtol=0, atol=1e-6 * np.max(np.abs(exact)))
+    assert rbf_covariance(0.0, ell, 2) == pytest.approx(-1 / ell**2)  # -k(0)/ℓ²
+    with pytest.raises(ValueError, match="`order` must be 0, 1 or 2, got 3"):
+        rbf_covariance(0.0, ell, 3)
+
+
+def test_equals_scikit_learns_posterior_and_its_finite_differences():
+    """Order 0 is sklearn's predict at the samples; orders 1 and 2 are its central
+    differences in t (step ℓ/1000: truncation and rounding well below the tolerances)."""
+    ell, ratio = 0.012, 0.2
+    x = _noisy_record(700)
+    t = np.arange(x.size) * DT
+    line, slope = _line(x, DT)
+    regressor = GaussianProcessRegressor(RBF(ell, "fixed"), alpha=ratio**2, optimizer=None)
+    regressor.fit(t[:, None], x - line)
+
+    def predict(times):
+        return regressor.predict(times[:, None])
+
+    estimate = methods.get("gaussian_process", length_scale_s=ell, noise_ratio=ratio)(x, DT)
+    np.testing.assert_allclose(estimate[0], predict(t) + line, rtol=0, atol=1e-10)
+    h1, h2 = ell / 1000, ell / 1000
+    first = (predict(t + h1) - predict(t - h1)) / (2 * h1) + slope
+    second = (predict(t + h2) - 2 * predict(t) + predict(t - h2)) / h2**2
+    np.testing.assert_allclose(estimate[1], first, rtol=0, atol=1e-6 * np.max(np.abs(first)))
+    np.testing.assert_allclose(estimate[2], second, rtol=0, atol=1e-5 * np.max(np.abs(second)))
+
+
+@pytest.mark.parametrize(
+    ("length_scale_s", "noise_ratio"),
+    [(0.002, 1.0), (0.01, 0.1), (0.05, 0.003), (0.4, 0.01), (5.0, 0.01)],
+)
+def test_the_fft_solver_equals_a_dense_solve_of_the_whole_record(length_scale_s, noise_ratio):
+    """Conjugate gradients on FFT products against numpy's dense solve, 2500 samples, over
+    short and long length scales (5 s: longer than the record), much and little noise."""
+    x = _noisy_record(2500, seed=2)
+    dense = _dense_posterior(x, DT, length_scale_s, noise_ratio)
+    fast = posterior_derivatives(x, DT, (0, 1, 2), length_scale_s, noise_ratio)
+    for order in (0, 1, 2):
+        scale = np.max(np.abs(dense[order]))
+        np.testing.assert_allclose(fast[order], dense[order], rtol=0, atol=1e-8 * scale)
+
+
+def test_every_sample_is_estimated_and_lines_are_reproduced_to_the_ends():
+    t = np.arange(1200) * DT
+    x = 2.5 - 4.0 * t
+    estimate = methods.get("gaussian_process")(x, DT)
+    np.testing.assert_allclose(estimate[0], x, atol=1e-12)
+    np.testing.assert_allclose(estimate[1], -4.0, atol=1e-9)
+    np.testing.assert_allclose(estimate[2], 0.0, atol=1e-9)
+    assert all(estimate.valid[order].all() for order in (0, 1, 2))
+
+
+def test_a_smooth_signal_is_differentiated_accurately_ends_included():
+    """sin(2π·3t) + t² on 2 s without noise, against its analytic derivatives (errors relative
+    to their peak). At least 0.3 s from the ends: 1e-7, 3e-6, 5e-5 for x, ẋ, ẍ; at the ends
+    the zero-mean process reverts to the record's line, losing the curvature of t² (measured:
+    4e-5, 6e-3, 0.17)."""
+    t = np.arange(2001) * DT
+    omega = 2 * np.pi * 3
+    truth = [
+        np.sin(omega * t) + t**2,
+        omega * np.cos(omega * t) + 2 * t,
+        -(omega**2) * np.sin(omega * t) + 2,
+    ]
+    estimate = methods.get("gaussian_process", length_scale_s=0.03, noise_ratio=1e-3)(truth[0], DT)
+    inner = slice(300, -300)
+    for order, middle_bound, end_bound in ((0, 1e-7, 1e-4), (1, 3e-6, 1e-2), (2, 5e-5, 0.25)):
+        error = np.abs(estimate[order] - truth[order]) / np.max(np.abs(truth[order]))
+        assert np.max(error[inner]) < middle_bound, (order, np.max(error[inner]))
+        assert np.max(error) < end_bound, (order, np.max(error))
+
+
+@pytest.mark.parametrize(("length_scale_s", "noise_ratio"), [(0.01, 0.1), (0.0472, 0.00405)])
+def test_the_response_is_what_sinusoids_get_away_from_the_ends(length_scale_s, noise_ratio):
+    """Middle third of 6 s: the Wiener filter H on the sinusoid, plus (1 - H0(0)) times the
+    record's least-squares line (taken out before a filter that passes 0 Hz at H0(0) < 1), to
+    rounding."""
+    method = methods.get("gaussian_process", length_scale_s=length_scale_s, noise_ratio=noise_ratio)
+    n = 6001
+    t = np.arange(n) * DT
+    middle = slice(n // 3, 2 * n // 3)
+    shrink = 1 - gaussian_process_response([0.0], DT, length_scale_s, noise_ratio, 0)[0].real
+    assert 0 < shrink < 1e-2
+    for frequency in (3.0, 17.0, 61.0, 210.0):
+        omega = 2 * np.pi * frequency
+        for x, part in ((np.cos(omega * t), np.real), (np.sin(omega * t), np.imag)):
+            estimate = method(x, DT)
+            line, slope = _line(x, DT)
+            for order, trend in ((0, line), (1, slope), (2, 0.0)):
+                response = method.frequency_response([frequency], DT, order)[0]
+                expected = part(response * np.exp(1j * omega * t[middle])) + shrink * (
+                    trend[middle] if order == 0 else trend
+                )
+                scale = max(1.0, omega**order)
+                np.testing.assert_allclose(
+                    estimate[order][middle], expected, rtol=0, atol=1e-8 * scale
+                )
+
+
+def test_the_response_is_the_wiener_gain_of_the_spectral_density():
+    ell, ratio = 0.02, 0.1
+    f = np.array([0.0, 5.0, 20.0, 40.0])
+    density = np.sqrt(2 * np.pi) * ell * np.exp(-2 * (np.pi * ell * f) ** 2)
+    gain = density / (density + ratio**2 * DT)
+    for order in (0, 1, 2):
+        response = gaussian_process_response(f, DT, ell, ratio, order)
+        np.testing.assert_allclose(response, (2j * np.pi * f) ** order * gain, rtol=1e-12)
+    # half gain where 2π²ℓ²f² = ln(√(2π) ℓ / (r² Δt))
+    half = np.sqrt(np.log(np.sqrt(2 * np.pi) * ell / (ratio**2 * DT)) / 2) / (np.pi * ell)
+    assert gaussian_process_response([half], DT, ell, ratio, 0)[0].real == pytest.approx(0.5)
+
+
+def test_the_marginal_likelihood_recovers_a_known_noise_level_and_length_scale():
+    """A draw of the RBF prior (ℓ = 20 ms, σ_f = 1) plus white noise of std 0.1, 400 samples:
+    the fit finds the noise within 15 % and the length scale within 30 %."""
+    rng = np.random.default_rng(5)
+    t = np.arange(400) * DT
+    prior = rbf_covariance(t[:, None] - t[None, :], 0.02, 0) + 1e-9 * np.eye(t.size)
+    signal = np.linalg.cholesky(prior) @ rng.standard_normal(t.size)
+    x = signal + 0.1 * rng.standard_normal(t.size)
+    length_scale_s, ratio, noise_std = fit_hyperparameters(x, DT)
+    assert noise_std == pytest.approx(0.1, rel=0.15)
+    assert length_scale_s == pytest.approx(0.02, rel=0.3)
+    assert ratio == pytest.approx(noise_std / np.std(x), rel=0.5)
+
+
+def test_the_data_only_method_is_accurate_on_the_paper_signal_and_a_line_is_a_line():
+    from diffbench import signals
+
+    realisation = signals.get_scenario("paper-signal").realise(3)
+    estimate = methods.get("gaussian_process_ml")(realisation.x, realisation.dt_s)
+    inside = realisation.interior
+    for order, bound in ((0, 0.08), (1, 5.0)):
+        error = estimate[order][inside] - realisation.truth[order][inside]
+        assert np.sqrt(np.mean(error**2)) < bound, order
+    t = np.arange(500) * DT
+    line = methods.get("gaussian_process_ml")(1.0 + 3.0 * t, DT)
+    np.testing.assert_allclose(line[0], 1.0 + 3.0 * t, atol=1e-12)
+    np.testing.assert_allclose(line[1], 3.0, atol=1e-9)
+    np.testing.assert_allclose(line[2], 0.0, atol=1e-9)
+    assert fit_hyperparameters(1.0 + 3.0 * t, DT) is None
+
+
+@pytest.mark.parametrize(
+    ("params", "dt", "message"),
+    [
+        ({"length_scale_s": 5e-4}, DT, r"`length_scale_s` must be in \[0.001, 1000\] s"),
+        ({"length_scale_s": 2000.0}, DT, r"`length_scale_s` must be in \[0.001, 1000\] s"),
+        ({"length_scale_s": 0.01}, 0.1, r"`length_scale_s` must be in \[0.1, 100000\] s"),
+    ],
+)
+def test_a_length_scale_outside_one_step_to_a_million_is_refused(params, dt, message):
+    with pytest.raises(ValueError, match=message):
+        methods.get("gaussian_process", **params)(np.zeros(100), dt)
+    with pytest.raises(ValueError, match=message):
+        methods.get("gaussian_process", **params).frequency_response([1.0], dt, 1)
+
+
+@pytest.mark.parametrize(
+    ("params", "message"),
+    [
+        ({"noise_ratio": 1e-4}, r"`noise_ratio` must be a finite number in \[0.001, 1000\]"),
+        ({"noise_ratio": 0.0}, r"`noise_ratio` must be a finite number in \[0.001, 1000\]"),
+        ({"length_scale_s": -1.0}, r"`length_scale_s` must be a finite number in \(0, inf\)"),
+        ({"length_scale_s": "long"}, r"`length_scale_s` must be a finite number"),
+    ],
+)
+def test_bad_hyperparameters_are_refused_by_name(params, message):
+    with pytest.raises(ValueError, match=message):
+        methods.get("gaussian_process", **params)
+    with pytest.raises(ValueError, match=r"unknown parameter\(s\) length_scale_s"):
+        methods.get("gaussian_process_ml", length_scale_s=0.01)
+    with pytest.raises(ValueError, match=r"`fit_samples` must be one of \{200, 400, 800\}"):
+        methods.get("gaussian_process_ml", fit_samples=300)
