@@ -114,6 +114,8 @@ def winners(rows: pd.DataFrame, order: int = 2) -> pd.DataFrame:
 def packages_line(rows: pd.DataFrame) -> str:
     """``butterworth (diffbench 0.1.0), pynumdiff.spectraldiff (pynumdiff 0.3), ...``: each
     method in the rows with the package and version stored with its cells."""
+    if "package" not in rows:
+        rows = rows.assign(package="unknown")
     pairs = rows[["method", "package"]].drop_duplicates().sort_values(["method", "package"])
     return ", ".join(f"{m} ({p})" for m, p in zip(pairs["method"], pairs["package"], strict=True))
 

@@ -209,6 +209,7 @@ class TvrDiff(_Peer):
     gamma: float = param(0.01, low=0.0, low_open=True, tune_low=1e-6, tune_high=1e6, log=True,
                          doc="regularisation weight")  # fmt: skip
     peer_call = "pynumdiff.tvrdiff"
+    presets = _tuned(order=3, gamma=325.0)
 
     def min_samples(self, dt: float) -> int:
         return self.order + 3
