@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from diffbench import methods
+from diffbench.bench.runner import preset_entry
 
 DT = 1e-3
 
@@ -35,9 +36,9 @@ def size_cap(name: str, dt: float = DT) -> tuple[int | None, str]:
 
 
 def timing_instance(name: str) -> methods.Method:
-    """Method ``name`` at its paper-signal preset (its class defaults if it has none)."""
-    has_preset = "paper-signal" in methods.method_class(name).presets
-    return methods.preset(name, "paper-signal" if has_preset else methods.DEFAULT_PRESET)
+    """Method ``name`` at its paper-signal preset (its class defaults if it has none, as a
+    plugin may)."""
+    return methods.get(name, **preset_entry(name, "paper-signal").params)
 
 
 def throughput(sizes=(10_000, 100_000, 1_000_000), repeats: int = 3) -> pd.DataFrame:

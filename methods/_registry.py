@@ -9,6 +9,7 @@ Presets (the paper's settings, or ours where the paper has none) are declared on
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -312,7 +313,12 @@ def register(name: str):
 def package_of(name: str) -> str:
     """The distribution and version whose code computes method ``name``, e.g.
     ``"diffbench 0.1.0"`` or ``"pynumdiff 0.3"`` (a peer run through an adapter)."""
-    cls = method_class(name)
+    return _package_of_class(method_class(name))
+
+
+@functools.cache
+def _package_of_class(cls: type[Method]) -> str:
+    # once per class: packages_distributions() reads every installed distribution's metadata
     package = cls.package
     if package is None:
         top = cls.__module__.split(".")[0]

@@ -6,7 +6,15 @@ from typing import ClassVar
 
 import numpy as np
 
-from diffbench.methods._registry import Method
+from diffbench.methods._registry import Method, Preset
+
+
+def tuned_preset(peer: str, **values) -> dict[str, Preset]:
+    """The ``paper-signal`` preset of a ``peer`` adapter: the peer tuned by the oracle for ẍ."""
+    source = (f"diffbench, not {peer}'s: oracle tuning (differential evolution) on the held-out "
+              "noise seed 10000, least interior ẍ RMSE")  # fmt: skip
+    return {"paper-signal": Preset(values, source)}
+
 
 APPLIED_TWICE = "the peer's ẋ differentiated again by the same method and parameters"
 

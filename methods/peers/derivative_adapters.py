@@ -15,20 +15,10 @@ from typing import ClassVar
 import numpy as np
 
 from diffbench.methods._plugins import note_missing
-from diffbench.methods._registry import Preset, param, register
+from diffbench.methods._registry import param, register
 from diffbench.methods._validation import MAX_WINDOW_STEPS
 from diffbench.methods.peers import PEERS_EXTRA
-from diffbench.methods.peers._adapter import PeerMethod
-
-PAPER_SOURCE = (
-    "diffbench, not derivative's: oracle tuning (differential evolution) on the held-out noise "
-    "seed 10000, least interior ẍ RMSE"
-)
-
-
-def _tuned(**values) -> dict[str, Preset]:
-    """The ``paper-signal`` preset: the peer tuned by the oracle for ẍ (``PAPER_SOURCE``)."""
-    return {"paper-signal": Preset(values, PAPER_SOURCE)}
+from diffbench.methods.peers._adapter import PeerMethod, tuned_preset
 
 
 class _Peer(PeerMethod):
@@ -57,7 +47,7 @@ class Spectral(_Peer):
                              log=True, doc="brick-wall cutoff, Hz (below Nyquist)",
                              kind="frequency")  # fmt: skip
     peer_call = "derivative.Spectral"
-    presets = _tuned(cutoff_hz=17.3)
+    presets = tuned_preset("derivative", cutoff_hz=17.3)
 
     def check_step(self, dt: float) -> None:
         if not self.cutoff_hz < 0.5 / dt:
@@ -80,7 +70,7 @@ class Spline(_Peer):
     order: int = param(3, low=1, high=5, integer=True, tune_low=3, tune_high=5,
                        doc="spline degree")  # fmt: skip
     peer_call = "derivative.Spline"
-    presets = _tuned(s=65.0, order=5)
+    presets = tuned_preset("derivative", s=65.0, order=5)
 
     def min_samples(self, dt: float) -> int:
         return self.order + 2
@@ -100,7 +90,7 @@ class Kernel(_Peer):
     lmbd: float = param(0.01, low=0.0, tune_low=1e-6, tune_high=10.0, log=True,
                         doc="noise variance added to the kernel's diagonal")  # fmt: skip
     peer_call = "derivative.Kernel"
-    presets = _tuned(sigma=0.0473, lmbd=1.04e-05)
+    presets = tuned_preset("derivative", sigma=0.0473, lmbd=1.04e-05)
     max_samples_reason = "dense N×N kernel solve, O(N³): about 2 s at 1000 samples"
 
     def max_samples(self, dt: float) -> int | None:
@@ -119,7 +109,7 @@ class Kalman(_Peer):
     alpha: float = param(1.0, low=0.0, low_open=True, tune_low=1e-10, tune_high=1e3, log=True,
                          doc="smoothness weight")  # fmt: skip
     peer_call = "derivative.Kalman"
-    presets = _tuned(alpha=4.85e-07)
+    presets = tuned_preset("derivative", alpha=4.85e-07)
     max_samples_reason = "dense 2N×2N solve, O(N³): about 0.25 s at 1000 samples"
 
     def max_samples(self, dt: float) -> int | None:
@@ -141,7 +131,7 @@ class SavitzkyGolay(_Peer):
     window_s: float = param(0.05, low=0.0, low_open=True, tune_low=0.002, tune_high=2.0,
                             log=True, doc="window length, s", kind="window")  # fmt: skip
     peer_call = "derivative.SavitzkyGolay"
-    presets = _tuned(order=5, window_s=0.074)
+    presets = tuned_preset("derivative", order=5, window_s=0.074)
 
     def min_samples(self, dt: float) -> int:
         steps = self.window_s / dt

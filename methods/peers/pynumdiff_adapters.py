@@ -17,17 +17,12 @@ import importlib.util
 from importlib import metadata
 
 from diffbench.methods._plugins import note_missing
-from diffbench.methods._registry import Preset, param, register
+from diffbench.methods._registry import param, register
 from diffbench.methods.peers import PEERS_EXTRA
-from diffbench.methods.peers._adapter import PeerMethod
+from diffbench.methods.peers._adapter import PeerMethod, tuned_preset
 
 SUPPORTED = "0.3"
 """The PyNumDiff release line these adapters are written for."""
-
-PAPER_SOURCE = (
-    "diffbench, not PyNumDiff's: oracle tuning (differential evolution) on the held-out noise "
-    "seed 10000, least interior ẍ RMSE"
-)
 
 
 def _installed() -> str | None:
@@ -68,11 +63,6 @@ def _window(default: int, low: int = 3, doc: str = "window, samples"):
                  tune_high=1001, log=True, doc=doc)  # fmt: skip
 
 
-def _tuned(**values) -> dict[str, Preset]:
-    """The ``paper-signal`` preset: the peer tuned by the oracle for ẍ (``PAPER_SOURCE``)."""
-    return {"paper-signal": Preset(values, PAPER_SOURCE)}
-
-
 class _Peer(PeerMethod):
     package = "pynumdiff"
     reference = "van Breugel, Kutz & Brunton (2020)"
@@ -87,7 +77,7 @@ class SpectralDiff(_Peer):
     extension: str = param("odd", choices=("odd", "even", "detrend", "none"),
                            doc="how PyNumDiff makes the record periodic")  # fmt: skip
     peer_call = "pynumdiff.spectraldiff"
-    presets = _tuned(cutoff_freq=0.037, extension="detrend")
+    presets = tuned_preset("PyNumDiff", cutoff_freq=0.037, extension="detrend")
 
     def _smooth_and_first(self, x, dt):
         extension = None if self.extension == "none" else self.extension
@@ -104,7 +94,7 @@ class ButterDiff(_Peer):
     num_iterations: int = param(1, low=1, high=10, integer=True, tune_low=1, tune_high=4,
                                 doc="times the smoothing is applied")  # fmt: skip
     peer_call = "pynumdiff.butterdiff"
-    presets = _tuned(filter_order=8, cutoff_freq=0.0429, num_iterations=4)
+    presets = tuned_preset("PyNumDiff", filter_order=8, cutoff_freq=0.0429, num_iterations=4)
 
     def min_samples(self, dt: float) -> int:
         return 3 * (self.filter_order + 1) + 1  # scipy filtfilt's default padding
@@ -124,7 +114,7 @@ class SavGolDiff(_Peer):
     window_size: int = _window(31, doc="Savitzky–Golay window, samples (> degree)")
     smoothing_win: int = _window(31, low=1, doc="Gaussian smoothing window of ẋ, samples")
     peer_call = "pynumdiff.savgoldiff"
-    presets = _tuned(degree=6, window_size=55, smoothing_win=7)
+    presets = tuned_preset("PyNumDiff", degree=6, window_size=55, smoothing_win=7)
 
     def min_samples(self, dt: float) -> int:
         if self.window_size <= self.degree:
@@ -147,7 +137,7 @@ class PolyDiff(_Peer):
     kernel: str = param("friedrichs", choices=("friedrichs", "gaussian"),
                         doc="weighting of the overlapping fits")  # fmt: skip
     peer_call = "pynumdiff.polydiff"
-    presets = _tuned(degree=7, window_size=148, kernel="friedrichs")
+    presets = tuned_preset("PyNumDiff", degree=7, window_size=148, kernel="friedrichs")
 
     def min_samples(self, dt: float) -> int:
         if self.window_size <= self.degree:
@@ -169,7 +159,7 @@ class SplineDiff(_Peer):
     s: float = param(1.0, low=0.0, tune_low=0.01, tune_high=100.0, log=True,
                      doc="residual energy / (N × robust noise variance)")  # fmt: skip
     peer_call = "pynumdiff.splinediff"
-    presets = _tuned(degree=5, s=1.35)
+    presets = tuned_preset("PyNumDiff", degree=5, s=1.35)
 
     def min_samples(self, dt: float) -> int:
         return 2 * (self.degree + 1)
@@ -191,7 +181,7 @@ class RtsDiff(_Peer):
         0, choices=(0, 1), integer=True, doc="1: forwards and backwards, blended"
     )
     peer_call = "pynumdiff.rtsdiff"
-    presets = _tuned(order=3, log_qr_ratio=14.5, forwardbackward=1)
+    presets = tuned_preset("PyNumDiff", order=3, log_qr_ratio=14.5, forwardbackward=1)
 
     def _smooth_and_first(self, x, dt):
         return _pynumdiff().rtsdiff(x, dt, self.order, self.log_qr_ratio,
@@ -209,7 +199,7 @@ class TvrDiff(_Peer):
     gamma: float = param(0.01, low=0.0, low_open=True, tune_low=1e-6, tune_high=1e6, log=True,
                          doc="regularisation weight")  # fmt: skip
     peer_call = "pynumdiff.tvrdiff"
-    presets = _tuned(order=3, gamma=325.0)
+    presets = tuned_preset("PyNumDiff", order=3, gamma=325.0)
 
     def min_samples(self, dt: float) -> int:
         return self.order + 3
@@ -228,7 +218,7 @@ class KernelDiff(_Peer):
     num_iterations: int = param(1, low=1, high=10, integer=True, tune_low=1, tune_high=5,
                                 doc="times the smoothing is applied")  # fmt: skip
     peer_call = "pynumdiff.kerneldiff"
-    presets = _tuned(kernel="friedrichs", window_size=20, num_iterations=1)
+    presets = tuned_preset("PyNumDiff", kernel="friedrichs", window_size=20, num_iterations=1)
 
     def min_samples(self, dt: float) -> int:
         return self.window_size + 1
@@ -247,7 +237,7 @@ class RbfDiff(_Peer):
     lmbd: float = param(0.01, low=0.0, low_open=True, tune_low=1e-6, tune_high=10.0, log=True,
                         doc="regularisation (height of the 'towers')")  # fmt: skip
     peer_call = "pynumdiff.rbfdiff"
-    presets = _tuned(sigma=0.0399, lmbd=0.00208)
+    presets = tuned_preset("PyNumDiff", sigma=0.0399, lmbd=0.00208)
     max_samples_reason = "its basis matrix grows as N², about 2 s at 2e4 samples"
 
     def max_samples(self, dt: float) -> int | None:

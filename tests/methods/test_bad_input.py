@@ -42,9 +42,7 @@ ALL = [name for name in methods.available() if not name.startswith("_test")]
     ],
 )
 def test_bad_signals_and_steps(name, x, dt, message):
-    # the paper-signal preset where the method has one (peers run at their class defaults)
-    has_preset = "paper-signal" in methods.method_class(name).presets
-    method = methods.preset(name, "paper-signal" if has_preset else methods.DEFAULT_PRESET)
+    method = methods.preset(name, "paper-signal")
     with pytest.raises(ValueError, match=message):
         method(x, dt)
 
