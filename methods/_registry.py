@@ -39,7 +39,8 @@ class Param:
     ``"window"`` for a window length in seconds (a whole, even number of sampling steps),
     ``"frequency"`` for a frequency in Hz (below Nyquist), ``None`` otherwise (one of
     :data:`PARAM_KINDS`, checked at registration). Limits that depend on the sampling step are
-    checked by the method's ``check_step(dt)``, not here.
+    checked by the method's ``check_step(dt)``, not here. ``untuned`` says why a numeric
+    parameter has no tuning range (the tuners leave it at its value).
     """
 
     name: str
@@ -55,6 +56,7 @@ class Param:
     log: bool = False
     doc: str = ""
     kind: str | None = None
+    untuned: str = ""
 
     def describe_range(self) -> str:
         """The admissible range as text, e.g. ``(0, inf)`` or ``{2, 4, 6}``."""

@@ -9,7 +9,7 @@ import numpy as np
 
 from diffbench.methods._registry import Method, Preset, param, register
 
-EXTENSIONS = ("odd", "even", "none")
+EXTENSIONS = ("odd-fitted", "odd", "even", "none")
 MAX_RECORD_STEPS = 1e9
 """The longest record the lowest cutoff may demand (two of its periods), in sampling steps."""
 
@@ -29,63 +29,104 @@ def raised_cosine_lowpass(frequency_hz, cutoff_hz: float, rolloff: float) -> np.
     return 0.5 * (1 + np.cos(np.pi * inside))
 
 
-def periodic_extension(x: np.ndarray, extension: str) -> tuple[np.ndarray, np.ndarray]:
-    """The record made one period of a periodic signal, and the straight line taken out.
+def extend(x: np.ndarray, extension: str) -> np.ndarray:
+    """The record (time on axis 0) made one period of a periodic signal.
 
-    ``"odd"``: the line through the first and last samples is subtracted and the rest reflected
-    through the last sample (period 2(N−1)): value and slope are continuous across the joins,
-    so the Gibbs ringing of a record whose ends do not meet is gone, and straight lines are
-    reproduced exactly. ``"even"``: mirrored about the last sample (period 2(N−1)); the value is
-    continuous, the slope flips. ``"none"``: the record as it is (for periodic records).
+    ``"odd"`` and ``"odd-fitted"``: reflected through the last sample, ``-x`` mirrored (period
+    2(N−1)); continuous in value and slope across the joins when the ends are at zero, which the
+    trend taken out beforehand sees to (:func:`polynomial_trend`). ``"even"``: mirrored about
+    the last sample (period 2(N−1)); the value is continuous, the slope flips. ``"none"``: the
+    record as it is (for periodic records).
     """
-    n = x.shape[0]
-    trend = np.zeros_like(x)
-    if extension == "odd":
-        ramp = np.linspace(0.0, 1.0, n).reshape((n,) + (1,) * (x.ndim - 1))
-        trend = x[:1] + (x[-1:] - x[:1]) * ramp
-        detrended = x - trend
-        return np.concatenate([detrended, -detrended[-2:0:-1]]), trend
+    if extension in ("odd", "odd-fitted"):
+        return np.concatenate([x, -x[-2:0:-1]])
     if extension == "even":
-        return np.concatenate([x, x[-2:0:-1]]), trend
-    return x, trend
+        return np.concatenate([x, x[-2:0:-1]])
+    return x
+
+
+def polynomial_trend(x: np.ndarray, extension: str, degree: int = 1, stopband=None) -> np.ndarray:
+    r"""Coefficients ``c`` (shape ``(degree + 1, channels)``, powers of :math:`\tau = t/T` on
+    :math:`[0, 1]`) of the polynomial taken out of ``x`` (shape ``(n, channels)``) before
+    :func:`extend`.
+
+    ``"odd"``: the line through the first and last samples, so that the odd reflection joins
+    at zero (the PyNumDiff choice); it passes the noise of two samples into the whole record
+    and shows at the ends. ``"odd-fitted"``: the polynomial of ``degree`` whose removal leaves
+    the least energy above the cutoff in the extended record,
+
+    .. math:: c = \arg\min_c \sum_f m_f\, w_f^2 \left|\mathcal F[E(x - \textstyle\sum_j c_j
+        \tau^j)](f)\right|^2,
+
+    with :math:`w_f` = ``stopband`` (:math:`1 - H(f)`) and :math:`m_f` the number of bins
+    (1 or 2) each one-sided bin stands for: a join that does not meet leaves a spectrum
+    decaying as 1/f above the cutoff, which the fit removes, so the ends come from the whole
+    record rather than from two samples. Linear in ``x``, exact on polynomials of ``degree``.
+    Out-of-band content correlated with the reflected powers (a strong sinusoid just above the
+    cutoff) moves the fit and shows at the ends. ``"even"``, ``"none"``: no trend (zeros).
+    """
+    n, channels = x.shape
+    coefficients = np.zeros((max(degree, 1) + 1, channels))
+    if extension == "odd":
+        coefficients[0], coefficients[1] = x[0], x[-1] - x[0]
+    elif extension == "odd-fitted":
+        tau = np.linspace(0.0, 1.0, n)
+        powers = tau[:, None] ** np.arange(degree + 1)
+        weight = np.asarray(stopband, dtype=float).copy()
+        weight[1:-1] *= np.sqrt(2.0)  # a one-sided bin but 0 Hz and Nyquist stands for two
+        basis = np.fft.rfft(extend(powers, extension), axis=0) * weight[:, None]
+        data = np.fft.rfft(extend(x, extension), axis=0) * weight[:, None]
+        design = np.concatenate([basis.real, basis.imag])
+        target = np.concatenate([data.real, data.imag])
+        coefficients[: degree + 1] = np.linalg.lstsq(design, target, rcond=None)[0]
+    return coefficients
 
 
 def spectral_derivatives(
-    x: np.ndarray, dt: float, orders, cutoff_hz: float, rolloff: float, extension: str
+    x: np.ndarray,
+    dt: float,
+    orders,
+    cutoff_hz: float,
+    rolloff: float,
+    extension: str,
+    fit_degree: int = 1,
 ) -> dict[int, np.ndarray]:
     r"""Derivatives of ``orders`` of samples ``x`` (time on axis 0) by FFT.
 
-    .. math:: \hat x^{(n)} = \mathcal F^{-1}\left[(i 2\pi f)^n H(f)\, \mathcal F[E x]\right]
-        \Big|_{\text{record}} + \ell^{(n)}
+    .. math:: \hat x^{(n)} = \mathcal F^{-1}\left[(i 2\pi f)^n H(f)\, \mathcal F[E(x - p)]
+        \right]\Big|_{\text{record}} + p^{(n)}
 
-    with E the periodic extension (:func:`periodic_extension`), ℓ the straight line it took
-    out (differentiated exactly) and H the raised-cosine low-pass
+    with E the periodic extension (:func:`extend`), p the polynomial taken out first
+    (:func:`polynomial_trend`, differentiated exactly) and H the raised-cosine low-pass
     (:func:`raised_cosine_lowpass`). The Nyquist bin of odd derivatives is set to zero (its
     derivative is not real).
 
     References: L. N. Trefethen, *Spectral Methods in MATLAB*, SIAM (2000), ch. 3;
     F. van Breugel, J. N. Kutz, B. W. Brunton, "Numerical differentiation of noisy data: a
     unifying multi-objective optimization framework", IEEE Access 8 (2020) (the
-    ``spectraldiff`` of PyNumDiff, with its odd extension).
+    ``spectraldiff`` of PyNumDiff, with its odd extension through the end samples).
     """
     n = x.shape[0]
-    periodic, trend = periodic_extension(x, extension)
-    period = periodic.shape[0]
+    flat = x.reshape(n, -1)
+    period = extend(flat[:, :1], extension).shape[0]
     f = np.fft.rfftfreq(period, dt)
-    spectrum = np.fft.rfft(periodic, axis=0)
     gain = raised_cosine_lowpass(f, cutoff_hz, rolloff)
-    shape = (-1,) + (1,) * (x.ndim - 1)
+    coefficients = polynomial_trend(flat, extension, fit_degree, 1.0 - gain)
+    tau = np.linspace(0.0, 1.0, n)
+    powers = tau[:, None] ** np.arange(coefficients.shape[0])
+    detrended = flat - powers @ coefficients
+    spectrum = np.fft.rfft(extend(detrended, extension), axis=0)
+    span_s = (n - 1) * dt
     results = {}
     for order in orders:
         factor = (2j * np.pi * f) ** order * gain
         if order % 2 and period % 2 == 0:
             factor[-1] = 0.0
-        estimate = np.fft.irfft(spectrum * factor.reshape(shape), n=period, axis=0)[:n]
-        if order == 0:
-            estimate = estimate + trend
-        elif order == 1 and extension == "odd":
-            estimate = estimate + (x[-1:] - x[:1]) / ((n - 1) * dt)
-        results[order] = estimate
+        estimate = np.fft.irfft(spectrum * factor[:, None], n=period, axis=0)[:n]
+        trend = np.polynomial.polynomial.polyder(coefficients, order, axis=0)
+        if trend.shape[0]:
+            estimate = estimate + powers[:, : trend.shape[0]] @ trend / span_s**order
+        results[order] = estimate.reshape(x.shape)
     return results
 
 
@@ -95,10 +136,10 @@ class Spectral(Method):
     :func:`spectral_derivatives`).
 
     The record must span at least two periods of the cutoff. Every sample is estimated (no
-    masked ends). Linear in the input. Exact on straight lines
-    with the odd extension (and on constants with the others): the line through the end samples
-    is taken out and differentiated exactly, and a low-pass passes 0 Hz unchanged. Its
-    frequency response away from the ends is :math:`H(f)(i2\\pi f)^n`.
+    masked ends). Linear in the input. Exact on polynomials of ``fit_degree`` with the
+    ``odd-fitted`` extension, on straight lines with ``odd`` and on constants with the others:
+    the polynomial taken out is differentiated exactly, and a low-pass passes 0 Hz unchanged.
+    Its frequency response away from the ends is :math:`H(f)(i2\\pi f)^n`.
 
     Parameters
     ----------
@@ -106,8 +147,15 @@ class Spectral(Method):
         Centre of the low-pass transition, Hz.
     rolloff : float in [0, 1]
         Width of the raised-cosine transition as a fraction of ``cutoff_hz`` (0: brick wall).
-    extension : {"odd", "even", "none"}
-        How the record is made periodic (:func:`periodic_extension`).
+    extension : {"odd-fitted", "odd", "even", "none"}
+        How the record is made periodic (:func:`extend`) and what is taken out first
+        (:func:`polynomial_trend`): ``odd-fitted`` fits the polynomial that leaves the least
+        energy above the cutoff, ``odd`` the line through the end samples.
+    fit_degree : int in [0, 3]
+        Degree of the polynomial ``odd-fitted`` takes out (1: the ends' values; 3: their
+        curvatures too, for records whose ends are not at an inflexion); unused otherwise.
+        Not tuned: a single seed's interior RMSE hardly tells the degrees apart, while the
+        ends do (degree 3 on the 1 s paper record: whole-record RMSE of x' 2.9 against 2.1).
 
     References
     ----------
@@ -133,15 +181,24 @@ class Spectral(Method):
         doc="raised-cosine transition width / cutoff (0: brick wall)",
     )
     extension: str = param(
-        "odd", choices=EXTENSIONS, doc="how the record is made periodic (odd, even, none)"
+        "odd-fitted",
+        choices=EXTENSIONS,
+        doc="how the record is made periodic (odd-fitted, odd, even, none)",
+    )
+    fit_degree: int = param(
+        1,
+        low=0,
+        high=3,
+        integer=True,
+        doc="degree of the polynomial odd-fitted takes out (unused by the other extensions)",
+        untuned="one seed's interior RMSE hardly tells the degrees apart; the ends do",
     )
 
     presets = {
         "paper-signal": Preset(
-            {"cutoff_hz": 18.1, "rolloff": 0.23, "extension": "none"},
+            {"cutoff_hz": 16.3, "rolloff": 0.16, "extension": "odd-fitted"},
             "diffbench, not in the paper: oracle tuning (differential evolution) on the held-out "
-            "noise seed 10000, least interior ẍ RMSE; no extension, as the 1 s record holds whole "
-            "periods of 4, 9 and 15 Hz",
+            "noise seed 10000, least interior ẍ RMSE",
         ),
         "robot": Preset(
             {"cutoff_hz": 5.0, "rolloff": 0.2, "extension": "odd"},
@@ -172,6 +229,8 @@ class Spectral(Method):
         return max(3, math.ceil(steps - 1e-9) + 1)
 
     def exact_degree(self, order: int) -> float | None:
+        if self.extension == "odd-fitted":
+            return self.fit_degree
         return 1 if self.extension == "odd" else 0
 
     def _response(self, frequency_hz, dt: float, order: int) -> np.ndarray:
@@ -179,6 +238,8 @@ class Spectral(Method):
         return (2j * np.pi * f) ** order * raised_cosine_lowpass(f, self.cutoff_hz, self.rolloff)
 
     def _estimate(self, x, dt, orders):
-        values = spectral_derivatives(x, dt, orders, self.cutoff_hz, self.rolloff, self.extension)
+        values = spectral_derivatives(
+            x, dt, orders, self.cutoff_hz, self.rolloff, self.extension, self.fit_degree
+        )
         valid = {order: np.ones(x.shape[0], dtype=bool) for order in orders}
         return values, valid

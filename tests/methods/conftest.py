@@ -16,6 +16,9 @@ EXTRA = {
     "spectral": [
         {"extension": "even", "rolloff": 0.5, "cutoff_hz": 40.0},
         {"extension": "none", "rolloff": 0.3, "cutoff_hz": 80.0},
+        {"extension": "odd", "rolloff": 0.0, "cutoff_hz": 40.0},
+        {"extension": "odd-fitted", "fit_degree": 3, "cutoff_hz": 30.0},
+        {"extension": "odd-fitted", "fit_degree": 0, "cutoff_hz": 30.0},
     ],
     "jacobi": [
         {"rule": "least_squares", "window_s": 0.05, "accel_window_s": 0.08},
