@@ -27,6 +27,39 @@ def check_dt(dt: float) -> float:
     return value
 
 
+def check_frequency(
+    name: str,
+    value_hz: float,
+    dt: float,
+    *,
+    lowest_hz: float = 0.0,
+    highest_hz: float | None = None,
+    why_low: str = "",
+    why_high: str = "",
+) -> None:
+    """Refuse a frequency parameter ``name`` outside what the step ``dt`` allows: below the
+    Nyquist frequency 1/(2 dt) (and at most ``highest_hz`` if given), at least ``lowest_hz``
+    (above 0 if that is 0). The message names the parameter, the allowed range at this step and,
+    in ``why_low`` / ``why_high``, the reason for a limit that is not Nyquist's."""
+    nyquist = 0.5 / dt
+    if highest_hz is None or highest_hz >= nyquist:
+        upper = f"{nyquist:g})"
+        too_high = not value_hz < nyquist
+    else:
+        upper = f"{highest_hz:.10g}]"
+        too_high = value_hz > highest_hz
+    lower = f"[{lowest_hz:g}" if lowest_hz > 0 else "(0"
+    allowed = f"{lower}, {upper} Hz"
+    if too_high:
+        reason = f" ({why_high})" if why_high else ""
+        raise ValueError(f"`{name}` must be below the Nyquist frequency {nyquist:g} Hz for "
+                         f"dt={dt!r} s, i.e. in {allowed}{reason}, got {value_hz!r}")  # fmt: skip
+    if value_hz < lowest_hz or not value_hz > 0:
+        reason = f" ({why_low})" if why_low else ""
+        raise ValueError(f"`{name}` must be in {allowed} at dt={dt!r} s{reason}, "
+                         f"got {value_hz!r}")  # fmt: skip
+
+
 def check_signal(x, dt: float, min_samples: int = 2) -> tuple[np.ndarray, float]:
     """Validate samples and sampling step; return ``(x, dt)`` as float64 array and float.
 

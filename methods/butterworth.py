@@ -10,6 +10,7 @@ from scipy import signal as sps
 
 from diffbench.methods._fir import apply_central_fir, fir_response
 from diffbench.methods._registry import Method, Preset, param, register
+from diffbench.methods._validation import check_frequency
 from diffbench.methods.finite_difference import central_difference_weights
 
 MIN_CUTOFF_FRACTION = 1e-3
@@ -90,20 +91,15 @@ class ButterworthEuler(Method):
 
     def check_step(self, dt: float) -> None:
         nyquist = 0.5 / dt
-        lowest, highest = MIN_CUTOFF_FRACTION * nyquist, MAX_CUTOFF_FRACTION * nyquist
-        allowed = f"[{lowest:g}, {highest:.10g}] Hz"
-        if self.cutoff_hz > highest:
-            raise ValueError(
-                f"`cutoff_hz` must be below the Nyquist frequency {nyquist:g} Hz for "
-                f"dt={dt!r} s, i.e. in {allowed} (within 1e-9 of Nyquist the design "
-                f"overflows), got {self.cutoff_hz!r}"
-            )
-        if self.cutoff_hz < lowest:
-            raise ValueError(
-                f"`cutoff_hz` must be in {allowed} at dt={dt!r} s (below {MIN_CUTOFF_FRACTION:g} "
-                f"of the Nyquist frequency the filter's sections lose their unit gain at 0 Hz "
-                f"to rounding, and from 1e-9 of it the filter fails), got {self.cutoff_hz!r}"
-            )
+        check_frequency(
+            "cutoff_hz", self.cutoff_hz, dt,
+            lowest_hz=MIN_CUTOFF_FRACTION * nyquist,
+            highest_hz=MAX_CUTOFF_FRACTION * nyquist,
+            why_high="within 1e-9 of Nyquist the design overflows",
+            why_low=f"below {MIN_CUTOFF_FRACTION:g} of the Nyquist frequency the filter's "
+            "sections lose their unit gain at 0 Hz to rounding, and from 1e-9 of it the filter "
+            "fails",
+        )  # fmt: skip
 
     def _sos(self, dt: float) -> np.ndarray:
         return _butter_sos(self.order, self.cutoff_hz, float(dt)).copy()  # scipy wants it writable

@@ -10,6 +10,7 @@ import numpy as np
 from scipy import fft as sp_fft
 
 from diffbench.methods._registry import Method, Preset, param, register
+from diffbench.methods._validation import check_frequency
 
 _STATIONARY = 4 * np.finfo(float).eps  # relative change of the gains that counts as none
 _SETTLED = 1e-11  # relative change accepted as converged once held for 50 m steps
@@ -314,21 +315,13 @@ class KalmanSmoother(Method):
     time_symmetric = False  # the prior and the transients differ at the two ends
 
     def check_step(self, dt: float) -> None:
-        nyquist = 0.5 / dt
-        lowest = MIN_BANDWIDTH_STEPS / dt
-        allowed = f"[{lowest:g}, {nyquist:g}) Hz"
-        if self.bandwidth_hz >= nyquist:
-            raise ValueError(
-                f"`bandwidth_hz` must be below the Nyquist frequency {nyquist:g} Hz for "
-                f"dt={dt!r} s, i.e. in {allowed}, got {self.bandwidth_hz!r}"
-            )
-        if self.bandwidth_hz < lowest:
-            raise ValueError(
-                f"`bandwidth_hz` must be in {allowed} at dt={dt!r} s (the steady-state gains "
-                f"settle in about 6 / (bandwidth_hz * dt) steps: below {MIN_BANDWIDTH_STEPS:g} "
-                f"/ dt that is over 6e4 steps, and from about 5e-6 / dt beyond the 10^6-step "
-                f"cap), got {self.bandwidth_hz!r}"
-            )
+        check_frequency(
+            "bandwidth_hz", self.bandwidth_hz, dt,
+            lowest_hz=MIN_BANDWIDTH_STEPS / dt,
+            why_low=f"the steady-state gains settle in about 6 / (bandwidth_hz * dt) steps: below "
+            f"{MIN_BANDWIDTH_STEPS:g} / dt that is over 6e4 steps, and from about 5e-6 / dt "
+            "beyond the 10^6-step cap",
+        )  # fmt: skip
 
     def min_samples(self, dt: float) -> int:
         return 2 * (self.model_order + 1)

@@ -6,6 +6,7 @@ import numpy as np
 from scipy.interpolate import make_smoothing_spline
 
 from diffbench.methods._registry import Method, Preset, param, register
+from diffbench.methods._validation import check_frequency
 
 MIN_CUTOFF_FRACTION = 1e-3
 """Lowest ``cutoff_hz`` as a fraction of the Nyquist frequency: λ grows as the cutoff to the
@@ -91,14 +92,12 @@ class SmoothingSpline(Method):
     reference = "Reinsch (1967)"
 
     def check_step(self, dt: float) -> None:
-        nyquist = 0.5 / dt
-        lowest = MIN_CUTOFF_FRACTION * nyquist
-        if not lowest <= self.cutoff_hz < nyquist:
-            raise ValueError(
-                f"`cutoff_hz` must be in [{lowest:g}, {nyquist:g}) Hz at dt={dt!r} s (below "
-                f"the Nyquist frequency, and at least {MIN_CUTOFF_FRACTION:g} of it: lower "
-                f"cutoffs lose the straight line to rounding), got {self.cutoff_hz!r}"
-            )
+        check_frequency(
+            "cutoff_hz", self.cutoff_hz, dt,
+            lowest_hz=MIN_CUTOFF_FRACTION * 0.5 / dt,
+            why_low=f"at least {MIN_CUTOFF_FRACTION:g} of the Nyquist frequency: lower cutoffs "
+            "lose the straight line to rounding",
+        )  # fmt: skip
 
     def min_samples(self, dt: float) -> int:
         return 5  # make_smoothing_spline's least

@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from diffbench.methods._registry import Method, Preset, param, register
+from diffbench.methods._validation import check_frequency
 
 EXTENSIONS = ("odd-fitted", "odd", "even", "none")
 MAX_RECORD_STEPS = 1e9
@@ -209,12 +210,7 @@ class Spectral(Method):
     reference = "Trefethen (2000)"
 
     def check_step(self, dt: float) -> None:
-        nyquist = 0.5 / dt
-        if not self.cutoff_hz < nyquist:
-            raise ValueError(
-                f"`cutoff_hz` must be below the Nyquist frequency {nyquist:g} Hz for dt={dt!r} "
-                f"s, got {self.cutoff_hz!r}"
-            )
+        check_frequency("cutoff_hz", self.cutoff_hz, dt)
 
     def min_samples(self, dt: float) -> int:
         # at least two periods of the cutoff: a shorter record has no harmonic below it and

@@ -16,7 +16,7 @@ import numpy as np
 
 from diffbench.methods._plugins import note_missing
 from diffbench.methods._registry import param, register
-from diffbench.methods._validation import MAX_WINDOW_STEPS
+from diffbench.methods._validation import MAX_WINDOW_STEPS, check_frequency
 from diffbench.methods.peers import PEERS_EXTRA
 from diffbench.methods.peers._adapter import PeerMethod, tuned_preset
 
@@ -50,9 +50,7 @@ class Spectral(_Peer):
     presets = tuned_preset("derivative", cutoff_hz=17.3)
 
     def check_step(self, dt: float) -> None:
-        if not self.cutoff_hz < 0.5 / dt:
-            raise ValueError(f"`cutoff_hz` must be below the Nyquist frequency {0.5 / dt:g} Hz "
-                             f"for dt={dt!r} s, got {self.cutoff_hz!r}")  # fmt: skip
+        check_frequency("cutoff_hz", self.cutoff_hz, dt)
 
     def _peer(self):
         import derivative
