@@ -18,8 +18,8 @@ SIZE_CAPS = {
     "pynumdiff.tvrdiff": (10_000, "a cvxpy problem per call: ~0.1 s per 1e3, superlinear"),
     "pynumdiff.polydiff": (100_000, "~0.09 s per 1e3 samples"),
     "pynumdiff.rtsdiff": (100_000, "a Python loop over samples: ~0.05 s per 1e3"),
-    "derivative.spline": (100_000, "~0.01 s per 1e3 and superlinear"),
-    "pynumdiff.splinediff": (100_000, "~0.01 s per 1e3 and superlinear"),
+    "derivative.spline": (100_000, "~0.04 s per 1e3: 3.8 s at 1e5"),
+    "pynumdiff.splinediff": (10_000, "scipy's make_splrep knot search: 4.4 s at 1e4, 96 s at 3e4"),
 }
 """Methods timed only up to a record length (and why): the slow ones would take minutes at 1e6
 samples. A method's own ``max_samples`` caps it too (the dense O(N³) peers)."""

@@ -3,6 +3,7 @@ records that are not periodic."""
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -46,7 +47,9 @@ def extend(x: np.ndarray, extension: str) -> np.ndarray:
     return x
 
 
-def polynomial_trend(x: np.ndarray, extension: str, degree: int = 1, stopband=None) -> np.ndarray:
+def polynomial_trend(
+    x: np.ndarray, extension: str, degree: int = 1, stopband=None, spectrum=None
+) -> np.ndarray:
     r"""Coefficients ``c`` (shape ``(degree + 1, channels)``, powers of :math:`\tau = t/T` on
     :math:`[0, 1]`) of the polynomial taken out of ``x`` (shape ``(n, channels)``) before
     :func:`extend`.
@@ -65,22 +68,35 @@ def polynomial_trend(x: np.ndarray, extension: str, degree: int = 1, stopband=No
     record rather than from two samples. Linear in ``x``, exact on polynomials of ``degree``.
     Out-of-band content correlated with the reflected powers (a strong sinusoid just above the
     cutoff) moves the fit and shows at the ends. ``"even"``, ``"none"``: no trend (zeros).
+    ``spectrum``: the ``rfft`` of the reflected ``x`` if the caller has it already.
     """
     n, channels = x.shape
     coefficients = np.zeros((max(degree, 1) + 1, channels))
     if extension == "odd":
         coefficients[0], coefficients[1] = x[0], x[-1] - x[0]
     elif extension == "odd-fitted":
-        tau = np.linspace(0.0, 1.0, n)
-        powers = tau[:, None] ** np.arange(degree + 1)
+        if spectrum is None:
+            spectrum = np.fft.rfft(extend(x, extension), axis=0)
         weight = np.asarray(stopband, dtype=float).copy()
         weight[1:-1] *= np.sqrt(2.0)  # a one-sided bin but 0 Hz and Nyquist stands for two
-        basis = np.fft.rfft(extend(powers, extension), axis=0) * weight[:, None]
-        data = np.fft.rfft(extend(x, extension), axis=0) * weight[:, None]
+        basis = reflected_power_spectra(n, degree) * weight[:, None]
+        data = spectrum * weight[:, None]
         design = np.concatenate([basis.real, basis.imag])
         target = np.concatenate([data.real, data.imag])
-        coefficients[: degree + 1] = np.linalg.lstsq(design, target, rcond=None)[0]
+        q, r = np.linalg.qr(design)
+        coefficients[: degree + 1] = np.linalg.lstsq(r, q.T @ target, rcond=None)[0]
     return coefficients
+
+
+@functools.lru_cache(maxsize=2)
+def reflected_power_spectra(n: int, degree: int) -> np.ndarray:
+    """``rfft`` of the odd reflection (:func:`extend`) of the powers τ^0..τ^degree on n samples
+    (read-only; kept for the last few record lengths, as it does not depend on the data)."""
+    tau = np.linspace(0.0, 1.0, n)
+    powers = tau[:, None] ** np.arange(degree + 1)
+    spectra = np.fft.rfft(extend(powers, "odd"), axis=0)
+    spectra.flags.writeable = False
+    return spectra
 
 
 def spectral_derivatives(
@@ -112,11 +128,17 @@ def spectral_derivatives(
     period = extend(flat[:, :1], extension).shape[0]
     f = np.fft.rfftfreq(period, dt)
     gain = raised_cosine_lowpass(f, cutoff_hz, rolloff)
-    coefficients = polynomial_trend(flat, extension, fit_degree, 1.0 - gain)
     tau = np.linspace(0.0, 1.0, n)
+    if extension == "odd-fitted":  # the trend's spectrum is taken out in the frequency domain
+        spectrum = np.fft.rfft(extend(flat, extension), axis=0)
+        coefficients = polynomial_trend(flat, extension, fit_degree, 1.0 - gain, spectrum)
+        basis = reflected_power_spectra(n, fit_degree)
+        spectrum = spectrum - basis @ coefficients[: fit_degree + 1]
+    else:
+        coefficients = polynomial_trend(flat, extension)
+        detrended = flat - tau[:, None] ** np.arange(2) @ coefficients
+        spectrum = np.fft.rfft(extend(detrended, extension), axis=0)
     powers = tau[:, None] ** np.arange(coefficients.shape[0])
-    detrended = flat - powers @ coefficients
-    spectrum = np.fft.rfft(extend(detrended, extension), axis=0)
     span_s = (n - 1) * dt
     results = {}
     for order in orders:
