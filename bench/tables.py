@@ -62,13 +62,19 @@ def format_value(value) -> str:
 
 
 def readable_params(method: str, params: str) -> str:
-    """``order=6, cutoff_hz=25`` in the method's declaration order (4 significant digits)."""
+    """``order=6, cutoff_hz=25`` in the method's declaration order (4 significant digits),
+    leaving out what the method's other choices leave unused (``Method.unused_params``)."""
     values = json.loads(params)
     try:
         order = [spec.name for spec in methods.params_of(methods.method_class(method))]
     except ValueError:  # a method no longer registered (e.g. a plugin not loaded)
         order = []
+    try:
+        unused = set(methods.get(method, **values).unused_params())
+    except ValueError:  # ... or stored values its code no longer accepts: print them all
+        unused = set()
     names = [n for n in order if n in values] + sorted(set(values) - set(order))
+    names = [n for n in names if n not in unused]
     return ", ".join(f"{name}={format_value(values[name])}" for name in names)
 
 

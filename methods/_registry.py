@@ -228,6 +228,10 @@ class Method:
         """Parameters that do not change the estimate of ``order`` (a tuner leaves them)."""
         return ()
 
+    def unused_params(self) -> tuple[str, ...]:
+        """Parameters this instance's other choices leave unused (tables do not print them)."""
+        return ()
+
     def exact_degree(self, order: int) -> float | None:
         """Highest polynomial degree whose derivative of ``order`` is reproduced exactly on the
         valid samples (``math.inf``: any degree; ``None``: not exact for any degree)."""

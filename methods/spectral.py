@@ -246,6 +246,9 @@ class Spectral(Method):
             )
         return max(3, math.ceil(steps - 1e-9) + 1)
 
+    def unused_params(self) -> tuple[str, ...]:
+        return () if self.extension == "odd-fitted" else ("fit_degree",)
+
     def exact_degree(self, order: int) -> float | None:
         if self.extension == "odd-fitted":
             return self.fit_degree

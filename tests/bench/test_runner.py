@@ -197,3 +197,15 @@ def test_two_concurrent_runs_on_one_store_store_each_cell_once(tmp_path):
     table = (tmp_path / "paper-signal" / "rmse.csv").read_text()
     assert table.count("\n") == 4 and all(",10\n" in row + "\n" for row in
                                           table.splitlines()[1:])  # fmt: skip
+
+
+def test_tables_print_the_parameters_a_setting_uses_in_declaration_order():
+    odd = json.dumps({"extension": "odd", "rolloff": 0.2, "cutoff_hz": 5.0, "fit_degree": 1})
+    fitted = json.dumps({"extension": "odd-fitted", "rolloff": 0.16, "cutoff_hz": 16.3,
+                         "fit_degree": 3})  # fmt: skip
+    assert tables.readable_params("spectral", odd) == "cutoff_hz=5, rolloff=0.2, extension=odd"
+    assert tables.readable_params("spectral", fitted) == (
+        "cutoff_hz=16.3, rolloff=0.16, extension=odd-fitted, fit_degree=3"
+    )
+    # a method not registered keeps every stored parameter, sorted by name
+    assert tables.readable_params("nowhere.method", '{"b": 2, "a": 1.23456}') == "a=1.235, b=2"
