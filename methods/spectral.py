@@ -52,7 +52,7 @@ def polynomial_trend(
 ) -> np.ndarray:
     r"""Coefficients ``c`` (shape ``(degree + 1, channels)``, powers of :math:`\tau = t/T` on
     :math:`[0, 1]`) of the polynomial taken out of ``x`` (shape ``(n, channels)``) before
-    :func:`extend`.
+    :func:`extend` (one row of zeros for ``"even"`` and ``"none"``).
 
     ``"odd"``: the line through the first and last samples, so that the odd reflection joins
     at zero (the PyNumDiff choice); it passes the noise of two samples into the whole record
@@ -71,10 +71,10 @@ def polynomial_trend(
     ``spectrum``: the ``rfft`` of the reflected ``x`` if the caller has it already.
     """
     n, channels = x.shape
-    coefficients = np.zeros((max(degree, 1) + 1, channels))
     if extension == "odd":
-        coefficients[0], coefficients[1] = x[0], x[-1] - x[0]
-    elif extension == "odd-fitted":
+        return np.stack([x[0], x[-1] - x[0]])
+    coefficients = np.zeros((degree + 1 if extension == "odd-fitted" else 1, channels))
+    if extension == "odd-fitted":
         if spectrum is None:
             spectrum = np.fft.rfft(extend(x, extension), axis=0)
         weight = np.asarray(stopband, dtype=float).copy()
@@ -84,7 +84,7 @@ def polynomial_trend(
         design = np.concatenate([basis.real, basis.imag])
         target = np.concatenate([data.real, data.imag])
         q, r = np.linalg.qr(design)
-        coefficients[: degree + 1] = np.linalg.lstsq(r, q.T @ target, rcond=None)[0]
+        coefficients = np.linalg.lstsq(r, q.T @ target, rcond=None)[0]
     return coefficients
 
 
@@ -128,17 +128,15 @@ def spectral_derivatives(
     period = extend(flat[:, :1], extension).shape[0]
     f = np.fft.rfftfreq(period, dt)
     gain = raised_cosine_lowpass(f, cutoff_hz, rolloff)
-    tau = np.linspace(0.0, 1.0, n)
     if extension == "odd-fitted":  # the trend's spectrum is taken out in the frequency domain
         spectrum = np.fft.rfft(extend(flat, extension), axis=0)
         coefficients = polynomial_trend(flat, extension, fit_degree, 1.0 - gain, spectrum)
-        basis = reflected_power_spectra(n, fit_degree)
-        spectrum = spectrum - basis @ coefficients[: fit_degree + 1]
+        spectrum = spectrum - reflected_power_spectra(n, fit_degree) @ coefficients
     else:
         coefficients = polynomial_trend(flat, extension)
-        detrended = flat - tau[:, None] ** np.arange(2) @ coefficients
-        spectrum = np.fft.rfft(extend(detrended, extension), axis=0)
-    powers = tau[:, None] ** np.arange(coefficients.shape[0])
+    powers = np.linspace(0.0, 1.0, n)[:, None] ** np.arange(coefficients.shape[0])
+    if extension != "odd-fitted":
+        spectrum = np.fft.rfft(extend(flat - powers @ coefficients, extension), axis=0)
     span_s = (n - 1) * dt
     results = {}
     for order in orders:
@@ -146,9 +144,8 @@ def spectral_derivatives(
         if order % 2 and period % 2 == 0:
             factor[-1] = 0.0
         estimate = np.fft.irfft(spectrum * factor[:, None], n=period, axis=0)[:n]
-        trend = np.polynomial.polynomial.polyder(coefficients, order, axis=0)
-        if trend.shape[0]:
-            estimate = estimate + powers[:, : trend.shape[0]] @ trend / span_s**order
+        trend = np.polynomial.polynomial.polyder(coefficients, order, axis=0)  # >= 1 row
+        estimate = estimate + powers[:, : trend.shape[0]] @ trend / span_s**order
         results[order] = estimate.reshape(x.shape)
     return results
 
