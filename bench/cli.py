@@ -195,6 +195,13 @@ def build_parser() -> argparse.ArgumentParser:
         default=10_000,
         help="noise seed tuned on (default 10000; never scored)",
     )
+    tune.add_argument(
+        "--tuning-seeds",
+        type=_positive_int,
+        default=1,
+        metavar="K",
+        help="average the tuning loss over K seeds, TUNING_SEED .. TUNING_SEED+K-1 (default 1)",
+    )
     tune.set_defaults(handler=_cmd_tune)
 
     grid = commands.add_parser(
@@ -404,13 +411,15 @@ def _check_cutoff(cutoff_hz: float, task) -> None:
 
 def _cmd_tune(args) -> None:
     task = _task(args.task)
+    tuned_on = range(args.tuning_seed, args.tuning_seed + args.tuning_seeds)
     with user_input():
         seeds = task.seeds(args.seeds)
-        task.tuning_data(args.tuning_seed)
-    if args.tuning_seed in seeds:
+        task.tuning_data(tuned_on[-1])
+    if set(tuned_on) & set(seeds):
+        span = "" if len(tuned_on) == 1 else f" .. {tuned_on[-1]} (--tuning-seeds)"
         raise UsageError(
-            f"--tuning-seed {args.tuning_seed} is among the scored seeds "
-            f"0..{seeds[-1]}; choose one >= {len(seeds)}"
+            f"--tuning-seed {args.tuning_seed}{span} overlaps the scored seeds "
+            f"0..{seeds[-1]}; choose a tuning seed >= {len(seeds)}"
         )
     names = _method_names(_name_list(args.method))
     data_only = [c for c in args.criteria if c != "oracle"]
@@ -424,7 +433,15 @@ def _cmd_tune(args) -> None:
                 continue
             cutoff = args.cutoff_hz if criterion != "oracle" else None
             jobs_list += [
-                runner.TuningJob(task.name, name, criterion, order, args.tuning_seed, cutoff)
+                runner.TuningJob(
+                    task.name,
+                    name,
+                    criterion,
+                    order,
+                    args.tuning_seed,
+                    cutoff,
+                    tuning_seeds=args.tuning_seeds,
+                )
                 for order in args.orders
             ]
     store = _open_store(args.out)

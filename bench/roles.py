@@ -1,8 +1,9 @@
 """What a row of a table is: the role of a parameter set (a preset, tuned, a variant), as data.
 
 A :class:`Role` is stored with every cell as columns (``origin``, ``preset``, ``by``,
-``criterion``, ``tuned_order``, ``tuning_seed``, ``cutoff_hz``, ``variant``); tables read those
-columns and print :meth:`Role.label`, never parse prose.
+``criterion``, ``tuned_order``, ``tuning_seed``, ``cutoff_hz``, ``variant``, and
+``tuning_seeds`` when a tuning used more than one seed); tables read those columns and print
+:meth:`Role.label`, never parse prose.
 """
 
 from __future__ import annotations
@@ -37,11 +38,15 @@ class Role:
     tuned_order : int or None
         The derivative order tuned for.
     tuning_seed : int or None
-        The noise seed tuned on (never a scored seed).
+        The (first) noise seed tuned on (never a scored seed).
     cutoff_hz : float or None
         The bandlimit guess of a data-only criterion.
     variant : str
         What a variant changes from its base preset (e.g. ``"q = 2"``).
+    tuning_seeds : int
+        How many consecutive noise seeds, from ``tuning_seed`` on, the tuning averaged its loss
+        over (1: one seed, and the field is left out of :meth:`as_dict`, so the identity of a
+        one-seed tuning's cells is what it was before the field existed).
     """
 
     origin: str
@@ -52,6 +57,7 @@ class Role:
     tuning_seed: int | None = None
     cutoff_hz: float | None = None
     variant: str = ""
+    tuning_seeds: int = 1
 
     def __post_init__(self) -> None:
         if self.origin not in ("preset", "tuned", "variant"):
@@ -59,24 +65,35 @@ class Role:
         if self.origin == "tuned" and (self.criterion not in CRITERION_NAMES
                                        or self.tuned_order not in (1, 2)):  # fmt: skip
             raise ValueError("a tuned role needs a criterion and a tuned_order of 1 or 2")
+        if isinstance(self.tuning_seeds, bool) or not (isinstance(self.tuning_seeds, int)
+                                                       and self.tuning_seeds >= 1):  # fmt: skip
+            raise ValueError(f"`tuning_seeds` must be an integer >= 1, got {self.tuning_seeds!r}")
+        if self.tuning_seeds > 1 and self.origin != "tuned":
+            raise ValueError("only a tuned role has more than one tuning seed")
 
     @classmethod
     def of_preset(cls, key: str, by: str) -> Role:
         return cls(origin="preset", preset=key, by=by)
 
     @classmethod
-    def tuned(cls, criterion: str, order: int, seed: int, cutoff_hz: float | None = None) -> Role:
+    def tuned(cls, criterion: str, order: int, seed: int, cutoff_hz: float | None = None,
+              seeds: int = 1) -> Role:  # fmt: skip
         return cls(origin="tuned", criterion=criterion, tuned_order=int(order),
                    tuning_seed=int(seed),
-                   cutoff_hz=None if cutoff_hz is None else float(cutoff_hz))  # fmt: skip
+                   cutoff_hz=None if cutoff_hz is None else float(cutoff_hz),
+                   tuning_seeds=seeds)  # fmt: skip
 
     def as_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
+        """The stored fields; ``tuning_seeds`` only when it is not 1."""
+        fields = dataclasses.asdict(self)
+        if self.tuning_seeds == 1:
+            del fields["tuning_seeds"]
+        return fields
 
     @property
     def label(self) -> str:
         """``preset (paper)``, ``oracle-tuned for ẍ``, ``no-truth-tuned for ẋ (f_c 20 Hz)``,
-        ``variant: q = 2``."""
+        ``oracle-tuned for ẋ on 5 seeds``, ``variant: q = 2``."""
         if self.origin == "preset":
             return "class defaults" if self.by == "defaults" else f"preset ({self.by})"
         if self.origin == "variant":
@@ -84,6 +101,8 @@ class Role:
         text = f"{CRITERION_NAMES[self.criterion]}-tuned for {ORDER_SYMBOLS[self.tuned_order]}"
         if self.cutoff_hz is not None:
             text += f" (f_c {self.cutoff_hz:.4g} Hz)"
+        if self.tuning_seeds > 1:
+            text += f" on {self.tuning_seeds} seeds"
         return text
 
     @property
@@ -91,4 +110,5 @@ class Role:
         """Presets first, then variants, then tuned by criterion and order."""
         rank = {"preset": 0, "variant": 1, "tuned": 2}[self.origin]
         criterion = list(CRITERION_NAMES).index(self.criterion) if self.criterion else -1
-        return (rank, criterion, self.tuned_order or 0, self.variant, self.tuning_seed or 0)
+        return (rank, criterion, self.tuned_order or 0, self.tuning_seeds, self.variant,
+                self.tuning_seed or 0)  # fmt: skip

@@ -139,7 +139,8 @@ def run(
 # --- tuning, stored and reused ------------------------------------------------------------
 @dataclass(frozen=True)
 class TuningJob:
-    """One tuning: ``method`` on ``task``'s realisation ``tuning_seed`` for ``order``."""
+    """One tuning: ``method`` on ``task``'s realisations ``tuning_seed`` ..
+    ``tuning_seed + tuning_seeds - 1`` (the loss averaged over them) for ``order``."""
 
     task: str
     method: str
@@ -148,6 +149,7 @@ class TuningJob:
     tuning_seed: int
     cutoff_hz: float | None = None
     budget: int | None = None
+    tuning_seeds: int = 1
 
     def fields(self) -> dict[str, Any]:
         return {
@@ -158,21 +160,29 @@ class TuningJob:
             "tuning_seed": self.tuning_seed,
             "cutoff_hz": self.cutoff_hz,
             "budget": self.budget,
+            "tuning_seeds": self.tuning_seeds,
         }
 
     @property
+    def seeds(self) -> range:
+        """The noise seeds tuned on."""
+        return range(self.tuning_seed, self.tuning_seed + self.tuning_seeds)
+
+    @property
     def role(self) -> Role:
-        return Role.tuned(self.criterion, self.order, self.tuning_seed, self.cutoff_hz)
+        return Role.tuned(self.criterion, self.order, self.tuning_seed, self.cutoff_hz,
+                          self.tuning_seeds)  # fmt: skip
 
 
 def _tune(job: TuningJob) -> dict[str, Any] | None:
     from diffbench.bench.tasks import get_task
 
-    realisation = get_task(job.task).tuning_data(job.tuning_seed)
+    task = get_task(job.task)
+    realisations = [task.tuning_data(seed) for seed in job.seeds]
     try:
         result = tuning.tune(
             job.method,
-            realisation,
+            realisations,
             job.order,
             job.criterion,
             job.cutoff_hz,

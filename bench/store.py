@@ -296,6 +296,9 @@ class RecordFile:
 # --- cells ---------------------------------------------------------------------------------
 ROLE_FIELDS = ("origin", "preset", "by", "criterion", "tuned_order", "tuning_seed", "cutoff_hz",
                "variant")  # fmt: skip
+# fields a role stores only when they differ from their default (older records lack them)
+OPTIONAL_ROLE_FIELDS = {"tuning_seeds": 1}
+ROLE_COLUMNS = (*ROLE_FIELDS, *OPTIONAL_ROLE_FIELDS)
 ORIGINS = ("preset", "tuned", "variant")
 
 
@@ -316,8 +319,10 @@ def _check_cell(record: dict) -> None:
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ValueError("`seed` must be an integer >= 0")
     role = record["role"]
-    if set(role) != set(ROLE_FIELDS) or role["origin"] not in ORIGINS:
+    if set(role) - set(OPTIONAL_ROLE_FIELDS) != set(ROLE_FIELDS) or role["origin"] not in ORIGINS:
         raise ValueError(f"`role` must have the fields {', '.join(ROLE_FIELDS)}")
+    if "tuning_seeds" in role:
+        _check_seed_count(role["tuning_seeds"], "role's `tuning_seeds`")
     for score in record["scores"]:
         if not (isinstance(score, list) and len(score) == 4 and isinstance(score[0], int)
                 and isinstance(score[1], str) and isinstance(score[2], str)
@@ -328,14 +333,25 @@ def _check_cell(record: dict) -> None:
         raise ValueError("`key` does not match the record's task, method, params, seed, role")
 
 
+def _check_seed_count(value: Any, name: str) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+
+
 # --- tunings -------------------------------------------------------------------------------
 TUNING_KEY_FIELDS = ("task", "method", "criterion", "order", "tuning_seed", "cutoff_hz",
                      "budget")  # fmt: skip
 
 
 def tuning_key(**fields: Any) -> str:
-    """The identity of a tuning: task, method, criterion, order, tuning seed, bandlimit, budget."""
-    return canonical({name: fields[name] for name in TUNING_KEY_FIELDS})
+    """The identity of a tuning: task, method, criterion, order, (first) tuning seed,
+    bandlimit, budget, and the number of tuning seeds when it is not 1 (so the key of a
+    one-seed tuning is what it was before the count existed)."""
+    key = {name: fields[name] for name in TUNING_KEY_FIELDS}
+    seeds = fields.get("tuning_seeds", 1)
+    if seeds != 1:
+        key["tuning_seeds"] = seeds
+    return canonical(key)
 
 
 def _check_tuning(record: dict) -> None:
@@ -343,7 +359,9 @@ def _check_tuning(record: dict) -> None:
         raise ValueError("`params` must be a dict")
     if not isinstance(record.get("loss"), (int, float)):
         raise ValueError("`loss` must be a number")
-    if record.get("key") != tuning_key(**{n: record.get(n) for n in TUNING_KEY_FIELDS}):
+    _check_seed_count(record.get("tuning_seeds", 1), "`tuning_seeds`")
+    fields = {n: record.get(n) for n in TUNING_KEY_FIELDS}
+    if record.get("key") != tuning_key(**fields, tuning_seeds=record.get("tuning_seeds", 1)):
         raise ValueError("`key` does not match the record's fields")
 
 
@@ -390,7 +408,10 @@ class Store:
 
     def add_tuning(self, *, params: Mapping[str, Any], loss: float, evaluations: int,
                    seconds: float, **fields: Any) -> bool:  # fmt: skip
+        """Store one finished tuning (its key fields, and ``tuning_seeds`` when not 1)."""
+        seeds = fields.get("tuning_seeds", 1)
         record = {"key": tuning_key(**fields), **{n: fields[n] for n in TUNING_KEY_FIELDS},
+                  **({"tuning_seeds": seeds} if seeds != 1 else {}),
                   "params": dict(params), "loss": _number(loss), "evaluations": int(evaluations),
                   "seconds": round(float(seconds), 4), "finished_utc": utc_now()}  # fmt: skip
         return self.tunings.append(record)
@@ -414,6 +435,7 @@ class Store:
                 record["seed"],
                 role,
                 *(record["role"][f] for f in ROLE_FIELDS),
+                *(record["role"].get(f, d) for f, d in OPTIONAL_ROLE_FIELDS.items()),
                 record["run"],
                 run.get("git_rev", "unknown"),
                 record["finished_utc"],
@@ -430,16 +452,18 @@ class Store:
         frame = pd.DataFrame(columns)
         for name in ("tuned_order", "tuning_seed"):
             frame[name] = frame[name].astype("Int64")
+        frame["tuning_seeds"] = frame["tuning_seeds"].astype(int)
         frame["cutoff_hz"] = frame["cutoff_hz"].astype(float)
         return frame
 
     def tunings_frame(self) -> pd.DataFrame:
-        """One row per stored tuning: its key fields, params (canonical JSON), loss,
-        evaluations, seconds."""
-        records = [{**{n: r[n] for n in TUNING_KEY_FIELDS}, "params": canonical(r["params"]),
+        """One row per stored tuning: its key fields, tuning_seeds, params (canonical JSON),
+        loss, evaluations, seconds."""
+        records = [{**{n: r[n] for n in TUNING_KEY_FIELDS},
+                    "tuning_seeds": r.get("tuning_seeds", 1), "params": canonical(r["params"]),
                     "loss": r["loss"], "evaluations": r["evaluations"], "seconds": r["seconds"]}
                    for r in self.tunings.records.values()]  # fmt: skip
-        return pd.DataFrame(records, columns=[*TUNING_KEY_FIELDS, "params", "loss",
+        return pd.DataFrame(records, columns=[*TUNING_KEY_FIELDS, "tuning_seeds", "params", "loss",
                                               "evaluations", "seconds"])  # fmt: skip
 
     def revisions(self) -> set[str]:
@@ -448,7 +472,7 @@ class Store:
         return {self.cells.runs.get(run, {}).get("git_rev", "unknown") for run in used}
 
 
-_FIXED = ("task", "method", "params", "seed", "role", *ROLE_FIELDS, "run", "git_rev",
+_FIXED = ("task", "method", "params", "seed", "role", *ROLE_COLUMNS, "run", "git_rev",
           "finished_utc", "elapsed_s", "package")  # fmt: skip
 FRAME_COLUMNS = (*_FIXED, "order", "region", "metric", "value")
 

@@ -18,20 +18,12 @@ import numpy as np
 import pandas as pd
 
 from diffbench import methods
+from diffbench.bench import store
 from diffbench.bench.roles import ORDER_SYMBOLS, Role
 from diffbench.bench.stats import confidence_interval
 
 ENTRY_KEYS = ["method", "params", "role"]
-ROLE_COLUMNS = [
-    "origin",
-    "preset",
-    "by",
-    "criterion",
-    "tuned_order",
-    "tuning_seed",
-    "cutoff_hz",
-    "variant",
-]
+ROLE_COLUMNS = list(store.ROLE_COLUMNS)
 REGION_LABELS = {"interior": "interior", "valid": "own valid samples"}
 
 # (column label, metric, derivative order, region)
@@ -255,11 +247,16 @@ def legend(rows: pd.DataFrame, extra: str = "") -> str:
             "`diffbench list`)."
         )
     for criterion in sorted({c for c in table["criterion"] if c}):
-        seeds = sorted({int(s) for s in table[table["criterion"] == criterion]["tuning_seed"]})
-        lines.append(
-            f"- **{CRITERION_NAMES[criterion]}-tuned for n**: {CRITERION_LEGEND[criterion]}"
-            f" (noise seed {', '.join(map(str, seeds))}, never scored)."
-        )
+        tuned = table[table["criterion"] == criterion]
+        pairs = zip(tuned["tuning_seed"], tuned["tuning_seeds"], strict=True)
+        spans = sorted({(int(first), int(count)) for first, count in pairs})
+        seeds = ", ".join(str(first) if count == 1 else f"{first}–{first + count - 1}"
+                          for first, count in spans)  # fmt: skip
+        text = (f"- **{CRITERION_NAMES[criterion]}-tuned for n**: {CRITERION_LEGEND[criterion]}"
+                f" (noise seed {seeds}, never scored")  # fmt: skip
+        if any(count > 1 for _, count in spans):
+            text += "; **on K seeds**: the loss averaged over K consecutive seeds"
+        lines.append(text + ").")
     if extra:
         lines.append(extra)
     return "\n".join(lines)

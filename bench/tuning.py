@@ -4,7 +4,8 @@ Two criteria:
 
 *oracle*
     the RMSE of the chosen derivative against the truth, on the scenario's interior, for one
-    tuning seed (scores are then taken on other seeds: never on the seed tuned on);
+    tuning seed, or averaged over several (scores are then taken on other seeds: never on a
+    seed tuned on);
 *no-truth*
     a data-only estimate of the same RMSE for linear methods (:func:`spectral_risk`): with a
     bandlimit guess f_c, the (Hann-tapered, detrended) periodogram of the measurement is split
@@ -220,21 +221,33 @@ class TuningResult:
 
 def tune(
     name: str,
-    realisation,
+    realisations,
     order: int,
     criterion: str = "oracle",
     cutoff_hz: float | None = None,
     max_evaluations: int | None = None,
     seed: int = 0,
 ) -> TuningResult:
-    """Tune method ``name`` on one realisation (samples ``x``, step ``dt_s``, ``interior``,
-    and, for the oracle, ``truth``) for the derivative of ``order``.
+    r"""Tune method ``name`` for the derivative of ``order`` on one realisation (samples ``x``,
+    step ``dt_s``, ``interior`` and, for the oracle, ``truth``) or a sequence of them.
+
+    On K realisations the loss of a setting θ is the mean of its losses,
+    :math:`L(\theta) = \frac1K \sum_k L_k(\theta)` (for the oracle, the mean interior RMSE,
+    the quantity the tables report over the scored seeds): one noise draw can favour a setting
+    by luck, K draws cut that luck by about √K. The realisations must share step and length.
 
     Candidates that a method rejects (e.g. a window longer than the signal) or that leave part
     of the interior unestimated cost +inf. ``max_evaluations`` bounds the work of the
     differential evolution (default 100 per searched parameter, within 150..400); at most one
     non-choice parameter is searched by a grid refined with Brent's method instead.
     """
+    if hasattr(realisations, "x"):
+        realisations = (realisations,)
+    realisations = tuple(realisations)
+    if not realisations:
+        raise ValueError("`realisations` must hold at least one realisation to tune on")
+    if len({(r.dt_s, np.shape(r.x)) for r in realisations}) > 1:
+        raise ValueError("the `realisations` tuned on together must share step and shape")
     if criterion not in CRITERIA:
         raise ValueError(f"`criterion` must be one of {', '.join(CRITERIA)}, got {criterion!r}")
     if order not in (1, 2):
@@ -242,26 +255,45 @@ def tune(
     if criterion != "oracle":
         if cutoff_hz is None:
             raise ValueError(f"the {criterion} criterion needs `cutoff_hz` (a bandlimit guess)")
-        nyquist = 0.5 / realisation.dt_s
+        nyquist = 0.5 / realisations[0].dt_s
         if not (isinstance(cutoff_hz, (int, float)) and 0 < cutoff_hz < nyquist):
             raise ValueError(f"`cutoff_hz` must lie strictly inside (0, {nyquist:g}) Hz (the "
                              f"Nyquist frequency), got {cutoff_hz!r}")  # fmt: skip
     if criterion == "no-truth" and not methods.method_class(name).linear:
         raise ValueError(f"the no-truth criterion needs a linear method; use 'pynumdiff' for "
                          f"{name!r}")  # fmt: skip
-    dt = realisation.dt_s
-    x = np.asarray(realisation.x, dtype=float)
-    interior = np.asarray(realisation.interior, dtype=bool)
+    first = realisations[0]
+    dt = first.dt_s
     cls = methods.method_class(name)
     fixed = set(cls.irrelevant_params(order))
-    dimensions = [d for d in search_space(name, dt, x.shape[0]) if d.name not in fixed]
+    dimensions = [d for d in search_space(name, dt, np.shape(first.x)[0]) if d.name not in fixed]
     gamma = pynumdiff_gamma(cutoff_hz, dt) if criterion == "pynumdiff" else 0.0
-    split = NoiseSplit.of(x[interior], dt, cutoff_hz) if criterion == "no-truth" else None
+    samples = [np.asarray(r.x, dtype=float) for r in realisations]
+    interiors = [np.asarray(r.interior, dtype=bool) for r in realisations]
+    splits = ([NoiseSplit.of(x[inside], dt, cutoff_hz)
+               for x, inside in zip(samples, interiors, strict=True)]
+              if criterion == "no-truth" else None)  # fmt: skip
     cache: dict[tuple, float] = {}
     history = []
     # the oracle's losses are compared on a grid of 1e-9 x the RMS of the true derivative
-    scale = (float(np.sqrt(np.mean(realisation.truth[order][interior] ** 2)))
+    scale = (float(np.sqrt(np.mean(first.truth[order][interiors[0]] ** 2)))
              if criterion == "oracle" else None)  # fmt: skip
+
+    def loss_on(k: int, params: dict[str, Any]) -> float:
+        """The loss of ``params`` on realisation ``k``."""
+        x, interior = samples[k], interiors[k]
+        try:
+            estimate = cls(**params)(x, dt, orders=(order,))
+        except ValueError:
+            return math.inf
+        if not estimate.valid[order][interior].all():
+            return math.inf
+        if criterion == "oracle":
+            error = estimate[order][interior] - realisations[k].truth[order][interior]
+            return float(np.sqrt(np.mean(error**2)))
+        if criterion == "no-truth":
+            return splits[k].risk(cls(**params), dt, order)
+        return no_truth_loss(x[interior], estimate[order][interior], dt, order, gamma)
 
     defaults = {spec.name: spec.default for spec in methods.params_of(cls)}
 
@@ -277,21 +309,11 @@ def tune(
         key = tuple(sorted(params.items()))
         if key in cache:
             return cache[key]
-        try:
-            estimate = cls(**params)(x, dt, orders=(order,))
-        except ValueError:
-            value = math.inf
-        else:
-            valid = estimate.valid[order]
-            if not valid[interior].all():
-                value = math.inf
-            elif criterion == "oracle":
-                error = estimate[order][interior] - realisation.truth[order][interior]
-                value = float(np.sqrt(np.mean(error**2)))
-            elif criterion == "no-truth":
-                value = split.risk(cls(**params), dt, order)
-            else:
-                value = no_truth_loss(x[interior], estimate[order][interior], dt, order, gamma)
+        value = 0.0
+        for k in range(len(realisations)):
+            value += loss_on(k, params) / len(realisations)
+            if not math.isfinite(value):
+                break
         value = comparable_loss(value, scale)
         cache[key] = value
         history.append((params, value))

@@ -183,3 +183,51 @@ def test_two_concurrent_writers_store_every_cell_exactly_once(tmp_path):
     keys = [line["key"] for line in lines if line["record"] == "cell"]
     assert len(keys) == len(set(keys)) == cells
     assert Store(directory).set_aside == []
+
+
+def test_a_one_seed_tuning_keeps_the_keys_stored_before_the_seed_count_existed(tmp_path):
+    from diffbench.bench.store import cell_key, tuning_key
+
+    fields = {"task": "t", "method": "m", "criterion": "oracle", "order": 1,
+              "tuning_seed": 10_000, "cutoff_hz": None, "budget": None}  # fmt: skip
+    # the key as every earlier version wrote it: the seven fields, sorted, compact JSON
+    assert tuning_key(**fields) == json.dumps(fields, sort_keys=True, separators=(",", ":"))
+    assert tuning_key(**fields, tuning_seeds=1) == tuning_key(**fields)
+    assert tuning_key(**fields, tuning_seeds=5) != tuning_key(**fields)
+    one, five = Role.tuned("oracle", 1, 10_000), Role.tuned("oracle", 1, 10_000, seeds=5)
+    assert "tuning_seeds" not in one.as_dict() and five.as_dict()["tuning_seeds"] == 5
+    assert one.label == "oracle-tuned for ẋ" and five.label == "oracle-tuned for ẋ on 5 seeds"
+    assert cell_key("t", "m", {}, 0, one.as_dict()) != cell_key("t", "m", {}, 0, five.as_dict())
+    store = Store(tmp_path / "store")
+    for role in (one, five):
+        assert store.add_cell(task="t", method="m", params={}, seed=0, role=role.as_dict(),
+                              scores=[], elapsed_s=0.0)  # fmt: skip
+    for count in (1, 5):
+        assert store.add_tuning(**fields, tuning_seeds=count, params={"w": count}, loss=0.5,
+                                evaluations=3, seconds=0.1)  # fmt: skip
+    again = Store(tmp_path / "store")
+    assert again.set_aside == []
+    assert again.find_tuning(**fields)["params"] == {"w": 1}
+    assert again.find_tuning(**fields, tuning_seeds=5)["params"] == {"w": 5}
+    assert sorted(again.tunings_frame()["tuning_seeds"]) == [1, 5]
+    with pytest.raises(ValueError, match="`tuning_seeds` must be an integer >= 1"):
+        Role.tuned("oracle", 1, 10_000, seeds=0)
+    with pytest.raises(ValueError, match="only a tuned role"):
+        Role(origin="preset", tuning_seeds=2)
+
+
+def test_a_record_with_a_bad_seed_count_is_set_aside(tmp_path):
+    from diffbench.bench.store import tuning_key
+
+    store = Store(tmp_path / "store")
+    fields = {"task": "t", "method": "m", "criterion": "oracle", "order": 1,
+              "tuning_seed": 10_000, "cutoff_hz": None, "budget": None}  # fmt: skip
+    assert store.add_tuning(**fields, params={}, loss=0.5, evaluations=1, seconds=0.1)
+    bad = {"record": "tuning", "key": tuning_key(**fields, tuning_seeds=0), **fields,
+           "tuning_seeds": 0, "params": {}, "loss": 0.5, "evaluations": 1, "seconds": 0.1,
+           "finished_utc": "2026-11-24T00:00:00Z"}  # fmt: skip
+    with store.tunings.path.open("a") as handle:
+        handle.write(json.dumps(bad) + "\n")
+    again = Store(tmp_path / "store")
+    assert len(again.tunings.records) == 1
+    assert [str(item) for item in again.set_aside] and "tuning_seeds" in str(again.set_aside[0])

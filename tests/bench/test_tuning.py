@@ -156,7 +156,67 @@ def test_tune_cli_tunes_on_one_seed_and_scores_on_others(tmp_path, capsys):
     assert (tmp_path / "paper-signal" / "tuning.md").exists()
     assert "oracle-tuned for ẋ" in (tmp_path / "paper-signal" / "rmse.md").read_text()
     assert main([*args, "--tuning-seed", "1"]) == 2
-    assert "is among the scored seeds" in capsys.readouterr().err
+    assert "overlaps the scored seeds" in capsys.readouterr().err
+
+
+def test_tuning_on_k_realisations_minimises_the_mean_of_their_losses():
+    # RMSE of gain·x against a·x is |gain − a|·rms(x): two realisations with a = 2 and one with
+    # a = 4 put the minimum of the mean at gain = 2 (one alone would give 4 or 2)
+    base = _known_problem()
+    x = base.x
+    realisations = [_Realisation(x, 1e-3, base.interior, {1: a * x, 2: a * x}) for a in (2, 2, 4)]
+    together = tuning.tune("_test_gain_1d", realisations, 1, "oracle")
+    alone = tuning.tune("_test_gain_1d", realisations[2], 1, "oracle")
+    assert together.params["gain"] == pytest.approx(2.0, rel=1e-3)
+    assert alone.params["gain"] == pytest.approx(4.0, rel=1e-3)
+    rms = float(np.sqrt(np.mean(x**2)))
+    assert together.loss == pytest.approx(2.0 / 3.0 * rms, rel=1e-3)  # (0 + 0 + 2)/3 · rms
+    # one realisation passed alone or in a list gives the same tuning, bit for bit
+    listed = tuning.tune("_test_gain_1d", [realisations[2]], 1, "oracle")
+    assert (listed.params, listed.loss) == (alone.params, alone.loss)
+
+
+def test_realisations_tuned_together_must_agree():
+    r = signals.get_scenario("paper-signal").realise(10_000)
+    with pytest.raises(ValueError, match="must share step and shape"):
+        tuning.tune("butterworth", [r, dataclasses.replace(r, dt_s=2e-3)], 1)
+    with pytest.raises(ValueError, match="at least one realisation"):
+        tuning.tune("butterworth", [], 1)
+
+
+def test_tune_cli_on_k_seeds_stores_the_count_and_labels_the_rows(tmp_path, capsys):
+    from diffbench.bench.store import Store
+
+    args = ["tune", "savitzky_golay", "paper-signal", "--orders", "1", "--seeds", "2",
+            "--tuning-seeds", "3", "--out", str(tmp_path), "--no-progress"]  # fmt: skip
+    assert main(args) == 0
+    store = Store(tmp_path / "store")
+    (tuned,) = store.tunings.records.values()
+    assert tuned["tuning_seed"] == 10_000 and tuned["tuning_seeds"] == 3
+    rows = store.cells_frame("paper-signal")
+    assert set(rows["seed"]) == {0, 1} and (rows["tuning_seeds"] == 3).all()
+    assert "oracle-tuned for ẋ on 3 seeds" in (tmp_path / "paper-signal" / "rmse.md").read_text()
+    assert "noise seed 10000–10002" in (tmp_path / "paper-signal" / "rmse.md").read_text()
+    # the stored loss is the mean over seeds 10000..10002 of the oracle loss
+    scenario = signals.get_scenario("paper-signal")
+    one = [
+        tuning.tune("savitzky_golay", scenario.realise(s), 1).loss for s in range(10_000, 10_003)
+    ]
+    params = {k: v for k, v in tuned["params"].items()}
+    realisations = [scenario.realise(s) for s in range(10_000, 10_003)]
+    losses = []
+    for r in realisations:
+        estimate = methods.get("savitzky_golay", **params)(r.x, r.dt_s, (1,))
+        error = estimate[1][r.interior] - r.truth[1][r.interior]
+        losses.append(float(np.sqrt(np.mean(error**2))))
+    assert tuned["loss"] == pytest.approx(np.mean(losses), rel=1e-8)
+    assert tuned["loss"] >= np.mean(one) - 1e-12  # tuning each seed alone can only do better
+    capsys.readouterr()
+    assert main(args) == 0  # stored: reused, nothing tuned again
+    assert "0 tunings computed, 1 reused" in capsys.readouterr().out
+    clash = [*args[:-3], "--tuning-seed", "0", "--out", str(tmp_path), "--no-progress"]
+    assert main(clash) == 2
+    assert "overlaps the scored seeds" in capsys.readouterr().err
 
 
 def test_losses_equal_in_exact_arithmetic_compare_equal_whatever_the_rounding():
