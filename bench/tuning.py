@@ -75,6 +75,8 @@ def search_space(name: str, dt: float, n_samples: int) -> list[Dimension]:
     cls = methods.method_class(name)
     dimensions = []
     for spec in methods.params_of(cls):
+        if spec.untuned:  # declared as left at its value, with the reason
+            continue
         if spec.choices is not None:
             if len(spec.choices) > 1:
                 dimensions.append(Dimension(spec.name, "choice", 0, 0, choices=spec.choices))

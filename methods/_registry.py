@@ -39,8 +39,9 @@ class Param:
     ``"window"`` for a window length in seconds (a whole, even number of sampling steps),
     ``"frequency"`` for a frequency in Hz (below Nyquist), ``None`` otherwise (one of
     :data:`PARAM_KINDS`, checked at registration). Limits that depend on the sampling step are
-    checked by the method's ``check_step(dt)``, not here. ``untuned`` says why a numeric
-    parameter has no tuning range (the tuners leave it at its value).
+    checked by the method's ``check_step(dt)``, not here. ``untuned`` says why the tuners
+    leave a parameter at its value (a numeric one without a tuning range, or choices that the
+    tuners' losses cannot tell apart).
     """
 
     name: str

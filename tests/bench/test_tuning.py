@@ -253,3 +253,13 @@ def test_tuning_result_is_unchanged_by_last_bit_perturbations_of_the_data():
         nudged = tuning.tune("savitzky_golay", dataclasses.replace(r, x=nudged_x), 1, "oracle",
                              max_evaluations=150)  # fmt: skip
         assert nudged.params == first.params, seed
+
+
+def test_a_parameter_declared_untuned_is_left_at_its_value():
+    # spectral's extension and fit_degree only change the ends, which the losses do not see
+    names = [d.name for d in tuning.search_space("spectral", 1e-3, 1001)]
+    assert names == ["cutoff_hz", "rolloff"]
+    r = signals.get_scenario("paper-signal").realise(10_000)
+    result = tuning.tune("spectral", r, 1, max_evaluations=150)
+    assert result.params["extension"] == "odd-fitted" and result.params["fit_degree"] == 1
+    assert {params["extension"] for params, _ in result.history} == {"odd-fitted"}
