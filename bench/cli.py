@@ -202,6 +202,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="K",
         help="average the tuning loss over K seeds, TUNING_SEED .. TUNING_SEED+K-1 (default 1)",
     )
+    tune.add_argument(
+        "--region",
+        choices=("interior", "whole"),
+        default="interior",
+        help="samples the loss is taken on: the task's interior (default) or the whole record "
+        "(every sample must be estimated; edge treatments are tuned too)",
+    )
     tune.set_defaults(handler=_cmd_tune)
 
     grid = commands.add_parser(
@@ -422,6 +429,11 @@ def _cmd_tune(args) -> None:
             f"0..{seeds[-1]}; choose a tuning seed >= {len(seeds)}"
         )
     names = _method_names(_name_list(args.method))
+    if args.region == "whole" and "no-truth" in args.criteria:
+        raise UsageError(
+            "--region whole cannot go with the no-truth criterion (a spectral estimate that "
+            "knows no ends): use --criteria oracle or pynumdiff"
+        )
     data_only = [c for c in args.criteria if c != "oracle"]
     if data_only:
         _check_cutoff(args.cutoff_hz, task)
@@ -441,6 +453,7 @@ def _cmd_tune(args) -> None:
                     args.tuning_seed,
                     cutoff,
                     tuning_seeds=args.tuning_seeds,
+                    region=args.region,
                 )
                 for order in args.orders
             ]

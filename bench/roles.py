@@ -2,8 +2,8 @@
 
 A :class:`Role` is stored with every cell as columns (``origin``, ``preset``, ``by``,
 ``criterion``, ``tuned_order``, ``tuning_seed``, ``cutoff_hz``, ``variant``, and
-``tuning_seeds`` when a tuning used more than one seed); tables read those columns and print
-:meth:`Role.label`, never parse prose.
+``tuning_seeds`` and ``tuned_region`` when they are not 1 and ``"interior"``); tables read
+those columns and print :meth:`Role.label`, never parse prose.
 """
 
 from __future__ import annotations
@@ -12,9 +12,12 @@ import dataclasses
 from typing import Any
 
 ORDER_SYMBOLS = {0: "x", 1: "ẋ", 2: "ẍ"}
+TUNED_REGIONS = ("interior", "whole")
+# fields stored only when they differ from these defaults (older records lack them)
+OPTIONAL_DEFAULTS = {"tuning_seeds": 1, "tuned_region": "interior"}
 CRITERION_NAMES = {"oracle": "oracle", "no-truth": "no-truth", "pynumdiff": "PyNumDiff-loss"}
 CRITERION_LEGEND = {
-    "oracle": "minimises the interior RMSE against the truth on the tuning seed",
+    "oracle": "minimises the interior (or whole-record) RMSE against the truth on the tuning seed",
     "no-truth": "minimises a data-only spectral estimate of that RMSE, from a bandlimit guess "
     "f_c (linear methods only)",
     "pynumdiff": "minimises PyNumDiff's data-only loss (re-integration RMSE + γ·TV, γ from f_c)",
@@ -47,6 +50,9 @@ class Role:
         How many consecutive noise seeds, from ``tuning_seed`` on, the tuning averaged its loss
         over (1: one seed, and the field is left out of :meth:`as_dict`, so the identity of a
         one-seed tuning's cells is what it was before the field existed).
+    tuned_region : {"interior", "whole"}
+        The samples the tuning loss was taken on (left out of :meth:`as_dict` when
+        ``"interior"``, likewise).
     """
 
     origin: str
@@ -58,6 +64,7 @@ class Role:
     cutoff_hz: float | None = None
     variant: str = ""
     tuning_seeds: int = 1
+    tuned_region: str = "interior"
 
     def __post_init__(self) -> None:
         if self.origin not in ("preset", "tuned", "variant"):
@@ -68,8 +75,11 @@ class Role:
         if isinstance(self.tuning_seeds, bool) or not (isinstance(self.tuning_seeds, int)
                                                        and self.tuning_seeds >= 1):  # fmt: skip
             raise ValueError(f"`tuning_seeds` must be an integer >= 1, got {self.tuning_seeds!r}")
-        if self.tuning_seeds > 1 and self.origin != "tuned":
-            raise ValueError("only a tuned role has more than one tuning seed")
+        if self.tuned_region not in TUNED_REGIONS:
+            raise ValueError(f"`tuned_region` must be one of {', '.join(TUNED_REGIONS)}, got "
+                             f"{self.tuned_region!r}")  # fmt: skip
+        if self.origin != "tuned" and (self.tuning_seeds, self.tuned_region) != (1, "interior"):
+            raise ValueError("only a tuned role has tuning seeds and a tuned region")
 
     @classmethod
     def of_preset(cls, key: str, by: str) -> Role:
@@ -77,38 +87,41 @@ class Role:
 
     @classmethod
     def tuned(cls, criterion: str, order: int, seed: int, cutoff_hz: float | None = None,
-              seeds: int = 1) -> Role:  # fmt: skip
+              seeds: int = 1, region: str = "interior") -> Role:  # fmt: skip
         return cls(origin="tuned", criterion=criterion, tuned_order=int(order),
                    tuning_seed=int(seed),
                    cutoff_hz=None if cutoff_hz is None else float(cutoff_hz),
-                   tuning_seeds=seeds)  # fmt: skip
+                   tuning_seeds=seeds, tuned_region=region)  # fmt: skip
 
     def as_dict(self) -> dict[str, Any]:
-        """The stored fields; ``tuning_seeds`` only when it is not 1."""
+        """The stored fields; ``tuning_seeds`` and ``tuned_region`` only when they are not
+        1 and ``"interior"``."""
         fields = dataclasses.asdict(self)
-        if self.tuning_seeds == 1:
-            del fields["tuning_seeds"]
+        for name, default in OPTIONAL_DEFAULTS.items():
+            if fields[name] == default:
+                del fields[name]
         return fields
 
     @property
     def label(self) -> str:
         """``preset (paper)``, ``oracle-tuned for ẍ``, ``no-truth-tuned for ẋ (f_c 20 Hz)``,
-        ``oracle-tuned for ẋ on 5 seeds``, ``variant: q = 2``."""
+        ``oracle-tuned for ẋ (whole record, 5 seeds)``, ``variant: q = 2``."""
         if self.origin == "preset":
             return "class defaults" if self.by == "defaults" else f"preset ({self.by})"
         if self.origin == "variant":
             return f"variant: {self.variant}" if self.variant else "base preset"
         text = f"{CRITERION_NAMES[self.criterion]}-tuned for {ORDER_SYMBOLS[self.tuned_order]}"
-        if self.cutoff_hz is not None:
-            text += f" (f_c {self.cutoff_hz:.4g} Hz)"
+        details = [f"f_c {self.cutoff_hz:.4g} Hz"] if self.cutoff_hz is not None else []
+        if self.tuned_region == "whole":
+            details.append("whole record")
         if self.tuning_seeds > 1:
-            text += f" on {self.tuning_seeds} seeds"
-        return text
+            details.append(f"{self.tuning_seeds} seeds")
+        return text + (f" ({', '.join(details)})" if details else "")
 
     @property
     def sort_key(self) -> tuple:
         """Presets first, then variants, then tuned by criterion and order."""
         rank = {"preset": 0, "variant": 1, "tuned": 2}[self.origin]
         criterion = list(CRITERION_NAMES).index(self.criterion) if self.criterion else -1
-        return (rank, criterion, self.tuned_order or 0, self.tuning_seeds, self.variant,
-                self.tuning_seed or 0)  # fmt: skip
+        return (rank, criterion, self.tuned_order or 0, self.tuned_region == "whole",
+                self.tuning_seeds, self.variant, self.tuning_seed or 0)  # fmt: skip

@@ -140,7 +140,8 @@ def run(
 @dataclass(frozen=True)
 class TuningJob:
     """One tuning: ``method`` on ``task``'s realisations ``tuning_seed`` ..
-    ``tuning_seed + tuning_seeds - 1`` (the loss averaged over them) for ``order``."""
+    ``tuning_seed + tuning_seeds - 1`` (the loss averaged over them) for ``order``, the loss
+    taken on ``region`` ("interior" or "whole")."""
 
     task: str
     method: str
@@ -150,6 +151,7 @@ class TuningJob:
     cutoff_hz: float | None = None
     budget: int | None = None
     tuning_seeds: int = 1
+    region: str = "interior"
 
     def fields(self) -> dict[str, Any]:
         return {
@@ -161,6 +163,7 @@ class TuningJob:
             "cutoff_hz": self.cutoff_hz,
             "budget": self.budget,
             "tuning_seeds": self.tuning_seeds,
+            "region": self.region,
         }
 
     @property
@@ -171,7 +174,7 @@ class TuningJob:
     @property
     def role(self) -> Role:
         return Role.tuned(self.criterion, self.order, self.tuning_seed, self.cutoff_hz,
-                          self.tuning_seeds)  # fmt: skip
+                          self.tuning_seeds, self.region)  # fmt: skip
 
 
 def _tune(job: TuningJob) -> dict[str, Any] | None:
@@ -187,6 +190,7 @@ def _tune(job: TuningJob) -> dict[str, Any] | None:
             job.criterion,
             job.cutoff_hz,
             max_evaluations=job.budget,
+            region=job.region,
         )
     except tuning.NoRoomToTune as error:  # the method cannot cover the task at all
         return {

@@ -38,6 +38,7 @@ import pandas as pd
 from filelock import FileLock
 
 from diffbench.bench.provenance import provenance
+from diffbench.bench.roles import OPTIONAL_DEFAULTS, TUNED_REGIONS, Role
 
 FORMAT = "diffbench-store"
 VERSION = 1
@@ -297,7 +298,7 @@ class RecordFile:
 ROLE_FIELDS = ("origin", "preset", "by", "criterion", "tuned_order", "tuning_seed", "cutoff_hz",
                "variant")  # fmt: skip
 # fields a role stores only when they differ from their default (older records lack them)
-OPTIONAL_ROLE_FIELDS = {"tuning_seeds": 1}
+OPTIONAL_ROLE_FIELDS = dict(OPTIONAL_DEFAULTS)
 ROLE_COLUMNS = (*ROLE_FIELDS, *OPTIONAL_ROLE_FIELDS)
 ORIGINS = ("preset", "tuned", "variant")
 
@@ -321,8 +322,7 @@ def _check_cell(record: dict) -> None:
     role = record["role"]
     if set(role) - set(OPTIONAL_ROLE_FIELDS) != set(ROLE_FIELDS) or role["origin"] not in ORIGINS:
         raise ValueError(f"`role` must have the fields {', '.join(ROLE_FIELDS)}")
-    if "tuning_seeds" in role:
-        _check_seed_count(role["tuning_seeds"], "role's `tuning_seeds`")
+    Role(**role)  # the values: a ValueError names the field
     for score in record["scores"]:
         if not (isinstance(score, list) and len(score) == 4 and isinstance(score[0], int)
                 and isinstance(score[1], str) and isinstance(score[2], str)
@@ -343,15 +343,23 @@ TUNING_KEY_FIELDS = ("task", "method", "criterion", "order", "tuning_seed", "cut
                      "budget")  # fmt: skip
 
 
+# key fields stored only when they differ from their default (older records lack them)
+OPTIONAL_TUNING_FIELDS = {"tuning_seeds": 1, "region": "interior"}
+
+
+def _optional(fields: Mapping[str, Any]) -> dict[str, Any]:
+    """The optional key fields of ``fields`` that differ from their defaults."""
+    values = {name: fields.get(name, default) for name, default in OPTIONAL_TUNING_FIELDS.items()}
+    return {name: value for name, value in values.items()
+            if value != OPTIONAL_TUNING_FIELDS[name]}  # fmt: skip
+
+
 def tuning_key(**fields: Any) -> str:
     """The identity of a tuning: task, method, criterion, order, (first) tuning seed,
-    bandlimit, budget, and the number of tuning seeds when it is not 1 (so the key of a
-    one-seed tuning is what it was before the count existed)."""
-    key = {name: fields[name] for name in TUNING_KEY_FIELDS}
-    seeds = fields.get("tuning_seeds", 1)
-    if seeds != 1:
-        key["tuning_seeds"] = seeds
-    return canonical(key)
+    bandlimit, budget, and the number of tuning seeds and the region of the loss when they
+    are not 1 and "interior" (so the key of a one-seed interior tuning is what it was before
+    those fields existed)."""
+    return canonical({**{name: fields[name] for name in TUNING_KEY_FIELDS}, **_optional(fields)})
 
 
 def _check_tuning(record: dict) -> None:
@@ -360,8 +368,11 @@ def _check_tuning(record: dict) -> None:
     if not isinstance(record.get("loss"), (int, float)):
         raise ValueError("`loss` must be a number")
     _check_seed_count(record.get("tuning_seeds", 1), "`tuning_seeds`")
+    if record.get("region", "interior") not in TUNED_REGIONS:
+        raise ValueError(f"`region` must be one of {', '.join(TUNED_REGIONS)}")
     fields = {n: record.get(n) for n in TUNING_KEY_FIELDS}
-    if record.get("key") != tuning_key(**fields, tuning_seeds=record.get("tuning_seeds", 1)):
+    optional = {n: record[n] for n in OPTIONAL_TUNING_FIELDS if n in record}
+    if record.get("key") != tuning_key(**fields, **optional):
         raise ValueError("`key` does not match the record's fields")
 
 
@@ -408,10 +419,9 @@ class Store:
 
     def add_tuning(self, *, params: Mapping[str, Any], loss: float, evaluations: int,
                    seconds: float, **fields: Any) -> bool:  # fmt: skip
-        """Store one finished tuning (its key fields, and ``tuning_seeds`` when not 1)."""
-        seeds = fields.get("tuning_seeds", 1)
+        """Store one finished tuning (its key fields; the optional ones when not default)."""
         record = {"key": tuning_key(**fields), **{n: fields[n] for n in TUNING_KEY_FIELDS},
-                  **({"tuning_seeds": seeds} if seeds != 1 else {}),
+                  **_optional(fields),
                   "params": dict(params), "loss": _number(loss), "evaluations": int(evaluations),
                   "seconds": round(float(seconds), 4), "finished_utc": utc_now()}  # fmt: skip
         return self.tunings.append(record)
@@ -457,13 +467,15 @@ class Store:
         return frame
 
     def tunings_frame(self) -> pd.DataFrame:
-        """One row per stored tuning: its key fields, tuning_seeds, params (canonical JSON),
-        loss, evaluations, seconds."""
+        """One row per stored tuning: its key fields, tuning_seeds, region, params
+        (canonical JSON), loss, evaluations, seconds."""
         records = [{**{n: r[n] for n in TUNING_KEY_FIELDS},
-                    "tuning_seeds": r.get("tuning_seeds", 1), "params": canonical(r["params"]),
+                    **{n: r.get(n, d) for n, d in OPTIONAL_TUNING_FIELDS.items()},
+                    "params": canonical(r["params"]),
                     "loss": r["loss"], "evaluations": r["evaluations"], "seconds": r["seconds"]}
                    for r in self.tunings.records.values()]  # fmt: skip
-        return pd.DataFrame(records, columns=[*TUNING_KEY_FIELDS, "tuning_seeds", "params", "loss",
+        return pd.DataFrame(records, columns=[*TUNING_KEY_FIELDS, *OPTIONAL_TUNING_FIELDS,
+                                              "params", "loss",
                                               "evaluations", "seconds"])  # fmt: skip
 
     def revisions(self) -> set[str]:

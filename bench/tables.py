@@ -255,7 +255,9 @@ def legend(rows: pd.DataFrame, extra: str = "") -> str:
         text = (f"- **{CRITERION_NAMES[criterion]}-tuned for n**: {CRITERION_LEGEND[criterion]}"
                 f" (noise seed {seeds}, never scored")  # fmt: skip
         if any(count > 1 for _, count in spans):
-            text += "; **on K seeds**: the loss averaged over K consecutive seeds"
+            text += "; **K seeds**: the loss averaged over K consecutive seeds"
+        if (tuned["tuned_region"] == "whole").any():
+            text += "; **whole record**: the loss taken on every sample, edge treatments tuned too"
         lines.append(text + ").")
     if extra:
         lines.append(extra)

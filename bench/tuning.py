@@ -3,9 +3,9 @@ r"""Tuning every registered method over its declared parameter ranges.
 Two criteria:
 
 *oracle*
-    the RMSE of the chosen derivative against the truth, on the scenario's interior, for one
-    tuning seed, or averaged over several (scores are then taken on other seeds: never on a
-    seed tuned on);
+    the RMSE of the chosen derivative against the truth, on the scenario's interior (or on the
+    whole record), for one tuning seed, or averaged over several (scores are then taken on
+    other seeds: never on a seed tuned on);
 *no-truth*
     a data-only estimate of the same RMSE for linear methods (:func:`spectral_risk`): with a
     bandlimit guess f_c, the (Hann-tapered, detrended) periodogram of the measurement is split
@@ -70,12 +70,17 @@ class Dimension:
         return round(number) if self.kind == "int" else float(number)
 
 
-def search_space(name: str, dt: float, n_samples: int) -> list[Dimension]:
-    """The dimensions searched for method ``name`` at step ``dt`` on ``n_samples`` samples."""
+REGIONS = ("interior", "whole")
+
+
+def search_space(name: str, dt: float, n_samples: int,
+                 region: str = "interior") -> list[Dimension]:  # fmt: skip
+    """The dimensions searched for method ``name`` at step ``dt`` on ``n_samples`` samples, by
+    a loss taken on ``region`` (parameters declared ``ends_only`` only on the whole record)."""
     cls = methods.method_class(name)
     dimensions = []
     for spec in methods.params_of(cls):
-        if spec.untuned:  # declared as left at its value, with the reason
+        if spec.ends_only and region != "whole":
             continue
         if spec.choices is not None:
             if len(spec.choices) > 1:
@@ -229,6 +234,7 @@ def tune(
     cutoff_hz: float | None = None,
     max_evaluations: int | None = None,
     seed: int = 0,
+    region: str = "interior",
 ) -> TuningResult:
     r"""Tune method ``name`` for the derivative of ``order`` on one realisation (samples ``x``,
     step ``dt_s``, ``interior`` and, for the oracle, ``truth``) or a sequence of them.
@@ -237,6 +243,11 @@ def tune(
     :math:`L(\theta) = \frac1K \sum_k L_k(\theta)` (for the oracle, the mean interior RMSE,
     the quantity the tables report over the scored seeds): one noise draw can favour a setting
     by luck, K draws cut that luck by about √K. The realisations must share step and length.
+
+    ``region``: the samples the loss is taken on, the scenario's ``"interior"`` or the
+    ``"whole"`` record (then every sample must be estimated, and the parameters declared
+    ``ends_only``, edge treatments, are searched too). The no-truth criterion, a spectral
+    estimate that knows no ends, takes the interior only.
 
     Candidates that a method rejects (e.g. a window longer than the signal) or that leave part
     of the interior unestimated cost +inf. ``max_evaluations`` bounds the work of the
@@ -252,6 +263,11 @@ def tune(
         raise ValueError("the `realisations` tuned on together must share step and shape")
     if criterion not in CRITERIA:
         raise ValueError(f"`criterion` must be one of {', '.join(CRITERIA)}, got {criterion!r}")
+    if region not in REGIONS:
+        raise ValueError(f"`region` must be one of {', '.join(REGIONS)}, got {region!r}")
+    if region == "whole" and criterion == "no-truth":
+        raise ValueError("the no-truth criterion knows no ends: tune on the whole record with "
+                         "'oracle' or 'pynumdiff', or on region 'interior'")  # fmt: skip
     if order not in (1, 2):
         raise ValueError(f"`order` must be 1 or 2, got {order!r}")
     if criterion != "oracle":
@@ -268,34 +284,37 @@ def tune(
     dt = first.dt_s
     cls = methods.method_class(name)
     fixed = set(cls.irrelevant_params(order))
-    dimensions = [d for d in search_space(name, dt, np.shape(first.x)[0]) if d.name not in fixed]
+    dimensions = [d for d in search_space(name, dt, np.shape(first.x)[0], region)
+                  if d.name not in fixed]  # fmt: skip
     gamma = pynumdiff_gamma(cutoff_hz, dt) if criterion == "pynumdiff" else 0.0
     samples = [np.asarray(r.x, dtype=float) for r in realisations]
-    interiors = [np.asarray(r.interior, dtype=bool) for r in realisations]
+    # the samples the loss is taken on
+    scored = [np.asarray(r.interior, dtype=bool) if region == "interior"
+              else np.ones(np.shape(r.x)[0], dtype=bool) for r in realisations]  # fmt: skip
     splits = ([NoiseSplit.of(x[inside], dt, cutoff_hz)
-               for x, inside in zip(samples, interiors, strict=True)]
+               for x, inside in zip(samples, scored, strict=True)]
               if criterion == "no-truth" else None)  # fmt: skip
     cache: dict[tuple, float] = {}
     history = []
     # the oracle's losses are compared on a grid of 1e-9 x the RMS of the true derivative
-    scale = (float(np.sqrt(np.mean(first.truth[order][interiors[0]] ** 2)))
+    scale = (float(np.sqrt(np.mean(first.truth[order][scored[0]] ** 2)))
              if criterion == "oracle" else None)  # fmt: skip
 
     def loss_on(k: int, params: dict[str, Any]) -> float:
         """The loss of ``params`` on realisation ``k``."""
-        x, interior = samples[k], interiors[k]
+        x, inside = samples[k], scored[k]
         try:
             estimate = cls(**params)(x, dt, orders=(order,))
         except ValueError:
             return math.inf
-        if not estimate.valid[order][interior].all():
+        if not estimate.valid[order][inside].all():
             return math.inf
         if criterion == "oracle":
-            error = estimate[order][interior] - realisations[k].truth[order][interior]
+            error = estimate[order][inside] - realisations[k].truth[order][inside]
             return float(np.sqrt(np.mean(error**2)))
         if criterion == "no-truth":
             return splits[k].risk(cls(**params), dt, order)
-        return no_truth_loss(x[interior], estimate[order][interior], dt, order, gamma)
+        return no_truth_loss(x[inside], estimate[order][inside], dt, order, gamma)
 
     defaults = {spec.name: spec.default for spec in methods.params_of(cls)}
 

@@ -39,9 +39,11 @@ class Param:
     ``"window"`` for a window length in seconds (a whole, even number of sampling steps),
     ``"frequency"`` for a frequency in Hz (below Nyquist), ``None`` otherwise (one of
     :data:`PARAM_KINDS`, checked at registration). Limits that depend on the sampling step are
-    checked by the method's ``check_step(dt)``, not here. ``untuned`` says why the tuners
-    leave a parameter at its value (a numeric one without a tuning range, or choices that the
-    tuners' losses cannot tell apart).
+    checked by the method's ``check_step(dt)``, not here. ``untuned`` says why a numeric
+    parameter has no tuning range (the tuners leave it at its value). ``ends_only``: the
+    parameter changes the estimate only near the ends of the record (an edge treatment), so
+    only a loss taken on the whole record tunes it; a loss on the interior leaves it at its
+    value.
     """
 
     name: str
@@ -58,6 +60,7 @@ class Param:
     doc: str = ""
     kind: str | None = None
     untuned: str = ""
+    ends_only: bool = False
 
     def describe_range(self) -> str:
         """The admissible range as text, e.g. ``(0, inf)`` or ``{2, 4, 6}``."""

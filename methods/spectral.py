@@ -170,16 +170,18 @@ class Spectral(Method):
     extension : {"odd-fitted", "odd", "even", "none"}
         How the record is made periodic (:func:`extend`) and what is taken out first
         (:func:`polynomial_trend`): ``odd-fitted`` fits the polynomial that leaves the least
-        energy above the cutoff, ``odd`` the line through the end samples. Not tuned: the
-        extensions differ near the ends, where the tuners' losses (on the interior) do not
-        look: on the 4.937 s paper record, ``none`` tuned on the interior for ẍ scored
-        4.74 / 449 (ẋ / ẍ) on the whole record, against 3.13 / 303 for ``odd-fitted`` at the
-        preset, with the same interior RMSE within 3 %.
+        energy above the cutoff, ``odd`` the line through the end samples. Tuned only on the
+        whole record (``ends_only``): the extensions differ near the ends, which a loss on the
+        interior does not see. On the 4.937 s paper record, ``none`` tuned on the interior for
+        ẍ scored 4.74 / 449 (ẋ / ẍ) on the whole record, against 3.13 / 303 for
+        ``odd-fitted`` at the preset, with the same interior RMSE within 3 %.
     fit_degree : int in [0, 3]
-        Degree of the polynomial ``odd-fitted`` takes out (1: the ends' values; 3: their
-        curvatures too, for records whose ends are not at an inflexion); unused otherwise.
-        Not tuned: a single seed's interior RMSE hardly tells the degrees apart, while the
-        ends do (degree 3 on the 1 s paper record: whole-record RMSE of x' 2.9 against 2.1).
+        Degree of the polynomial ``odd-fitted`` takes out (0: one value for both ends; 1: the
+        ends' values; 3: their curvatures too, for records whose ends are not at an
+        inflexion); unused otherwise.
+        Tuned only on the whole record (``ends_only``): the interior hardly tells the degrees
+        apart, the ends do (degree 3 on the 1 s paper record: whole-record RMSE of ẋ 2.9
+        against 2.1 for degree 1).
 
     References
     ----------
@@ -208,16 +210,17 @@ class Spectral(Method):
         "odd-fitted",
         choices=EXTENSIONS,
         doc="how the record is made periodic (odd-fitted, odd, even, none)",
-        untuned="the extensions differ near the ends, which the tuners' interior losses do not "
-        "see; odd-fitted is the best there unless the record is periodic (then: none)",
+        ends_only=True,
     )
     fit_degree: int = param(
         1,
         low=0,
         high=3,
         integer=True,
+        tune_low=0,
+        tune_high=3,
         doc="degree of the polynomial odd-fitted takes out (unused by the other extensions)",
-        untuned="one seed's interior RMSE hardly tells the degrees apart; the ends do",
+        ends_only=True,
     )
 
     presets = {

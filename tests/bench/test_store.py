@@ -185,6 +185,10 @@ def test_two_concurrent_writers_store_every_cell_exactly_once(tmp_path):
     assert Store(directory).set_aside == []
 
 
+def one_dict() -> dict:
+    return Role.tuned("oracle", 1, 10_000).as_dict()
+
+
 def test_a_one_seed_tuning_keeps_the_keys_stored_before_the_seed_count_existed(tmp_path):
     from diffbench.bench.store import cell_key, tuning_key
 
@@ -194,9 +198,18 @@ def test_a_one_seed_tuning_keeps_the_keys_stored_before_the_seed_count_existed(t
     assert tuning_key(**fields) == json.dumps(fields, sort_keys=True, separators=(",", ":"))
     assert tuning_key(**fields, tuning_seeds=1) == tuning_key(**fields)
     assert tuning_key(**fields, tuning_seeds=5) != tuning_key(**fields)
+    assert tuning_key(**fields, region="interior") == tuning_key(**fields)
+    assert tuning_key(**fields, region="whole") != tuning_key(**fields)
+    whole = Role.tuned("oracle", 2, 10_000, region="whole")
+    assert whole.as_dict()["tuned_region"] == "whole" and "tuned_region" not in one_dict()
+    assert Role.tuned("oracle", 1, 10_000, seeds=5, region="whole").label == (
+        "oracle-tuned for ẋ (whole record, 5 seeds)"
+    )
+    with pytest.raises(ValueError, match="`tuned_region` must be one of interior, whole"):
+        Role.tuned("oracle", 1, 10_000, region="ends")
     one, five = Role.tuned("oracle", 1, 10_000), Role.tuned("oracle", 1, 10_000, seeds=5)
     assert "tuning_seeds" not in one.as_dict() and five.as_dict()["tuning_seeds"] == 5
-    assert one.label == "oracle-tuned for ẋ" and five.label == "oracle-tuned for ẋ on 5 seeds"
+    assert one.label == "oracle-tuned for ẋ" and five.label == "oracle-tuned for ẋ (5 seeds)"
     assert cell_key("t", "m", {}, 0, one.as_dict()) != cell_key("t", "m", {}, 0, five.as_dict())
     store = Store(tmp_path / "store")
     for role in (one, five):
@@ -205,11 +218,16 @@ def test_a_one_seed_tuning_keeps_the_keys_stored_before_the_seed_count_existed(t
     for count in (1, 5):
         assert store.add_tuning(**fields, tuning_seeds=count, params={"w": count}, loss=0.5,
                                 evaluations=3, seconds=0.1)  # fmt: skip
+    assert store.add_tuning(**fields, region="whole", params={"w": 0}, loss=0.5,
+                            evaluations=3, seconds=0.1)  # fmt: skip
     again = Store(tmp_path / "store")
     assert again.set_aside == []
     assert again.find_tuning(**fields)["params"] == {"w": 1}
     assert again.find_tuning(**fields, tuning_seeds=5)["params"] == {"w": 5}
-    assert sorted(again.tunings_frame()["tuning_seeds"]) == [1, 5]
+    assert again.find_tuning(**fields, region="whole")["params"] == {"w": 0}
+    frame = again.tunings_frame()
+    assert sorted(zip(frame["tuning_seeds"], frame["region"], strict=True)) == [
+        (1, "interior"), (1, "whole"), (5, "interior")]  # fmt: skip
     with pytest.raises(ValueError, match="`tuning_seeds` must be an integer >= 1"):
         Role.tuned("oracle", 1, 10_000, seeds=0)
     with pytest.raises(ValueError, match="only a tuned role"):

@@ -1,6 +1,7 @@
 """The tuner: known optima, ranges respected, tuning and scoring on different seeds."""
 
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -10,6 +11,7 @@ from diffbench import methods, signals
 from diffbench.bench import tuning
 from diffbench.bench.cli import main
 from diffbench.methods import Method, Preset, param, register
+from diffbench.methods.spectral import EXTENSIONS
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -195,7 +197,7 @@ def test_tune_cli_on_k_seeds_stores_the_count_and_labels_the_rows(tmp_path, caps
     assert tuned["tuning_seed"] == 10_000 and tuned["tuning_seeds"] == 3
     rows = store.cells_frame("paper-signal")
     assert set(rows["seed"]) == {0, 1} and (rows["tuning_seeds"] == 3).all()
-    assert "oracle-tuned for ẋ on 3 seeds" in (tmp_path / "paper-signal" / "rmse.md").read_text()
+    assert "oracle-tuned for ẋ (3 seeds)" in (tmp_path / "paper-signal" / "rmse.md").read_text()
     assert "noise seed 10000–10002" in (tmp_path / "paper-signal" / "rmse.md").read_text()
     # the stored loss is the mean over seeds 10000..10002 of the oracle loss
     scenario = signals.get_scenario("paper-signal")
@@ -255,11 +257,55 @@ def test_tuning_result_is_unchanged_by_last_bit_perturbations_of_the_data():
         assert nudged.params == first.params, seed
 
 
-def test_a_parameter_declared_untuned_is_left_at_its_value():
-    # spectral's extension and fit_degree only change the ends, which the losses do not see
-    names = [d.name for d in tuning.search_space("spectral", 1e-3, 1001)]
-    assert names == ["cutoff_hz", "rolloff"]
+def test_edge_treatments_are_tuned_on_the_whole_record_only():
+    # spectral's extension and fit_degree change only the ends, which the interior does not see
+    assert [d.name for d in tuning.search_space("spectral", 1e-3, 1001)] == ["cutoff_hz",
+                                                                             "rolloff"]  # fmt: skip
+    whole = [d.name for d in tuning.search_space("spectral", 1e-3, 1001, "whole")]
+    assert whole == ["cutoff_hz", "rolloff", "extension", "fit_degree"]
+    scenario = signals.get_scenario("paper-signal")
+    r = scenario.realise(10_000)
+    inner = tuning.tune("spectral", r, 1, max_evaluations=150)
+    assert {params["extension"] for params, _ in inner.history} == {"odd-fitted"}
+    assert {params["fit_degree"] for params, _ in inner.history} == {1}
+    # on the whole record the loss is the RMSE over every sample, and the ends are searched
+    realisations = [scenario.realise(s) for s in range(10_000, 10_003)]
+    whole = tuning.tune("spectral", realisations, 1, region="whole")
+    assert {params["extension"] for params, _ in whole.history} == set(EXTENSIONS)
+    losses = []
+    for q in realisations:
+        error = methods.get("spectral", **whole.params)(q.x, q.dt_s, (1,))[1] - q.truth[1]
+        losses.append(float(np.sqrt(np.mean(error**2))))
+    assert whole.loss == pytest.approx(np.mean(losses), rel=1e-8)
+    # the paper signal's ends are odd points of it (sines at integer Hz, x(0) = x(1) = 0): an
+    # odd extension through one fitted value is exact there and has the least end noise
+    assert whole.params["extension"] == "odd-fitted" and whole.params["fit_degree"] == 0
+    at_interior_setting = []
+    for q in realisations:
+        estimate = methods.get("spectral", **inner.params)(q.x, q.dt_s, (1,))[1]
+        at_interior_setting.append(float(np.sqrt(np.mean((estimate - q.truth[1]) ** 2))))
+    assert whole.loss < np.mean(at_interior_setting)
+
+
+def test_whole_record_tuning_refuses_masked_ends_and_the_no_truth_criterion(tmp_path, capsys):
     r = signals.get_scenario("paper-signal").realise(10_000)
-    result = tuning.tune("spectral", r, 1, max_evaluations=150)
-    assert result.params["extension"] == "odd-fitted" and result.params["fit_degree"] == 1
-    assert {params["extension"] for params, _ in result.history} == {"odd-fitted"}
+    # Jacobi masks its ends: no setting covers the whole record
+    assert tuning.tune("jacobi", r, 1, region="whole", max_evaluations=150).loss == math.inf
+    with pytest.raises(ValueError, match="knows no ends"):
+        tuning.tune("spectral", r, 1, "no-truth", cutoff_hz=20.0, region="whole")
+    with pytest.raises(ValueError, match="`region` must be one of interior, whole"):
+        tuning.tune("spectral", r, 1, region="ends")
+    args = ["tune", "spectral", "paper-signal", "--orders", "1", "--seeds", "2", "--region",
+            "whole", "--out", str(tmp_path), "--no-progress"]  # fmt: skip
+    assert main([*args, "--criteria", "oracle,no-truth"]) == 2
+    assert "--region whole cannot go with the no-truth criterion" in capsys.readouterr().err
+    assert main(args) == 0
+    from diffbench.bench.store import Store
+
+    store = Store(tmp_path / "store")
+    (tuned,) = store.tunings.records.values()
+    assert tuned["region"] == "whole" and "tuning_seeds" not in tuned
+    rows = store.cells_frame("paper-signal")
+    assert (rows["tuned_region"] == "whole").all()
+    text = (tmp_path / "paper-signal" / "rmse.md").read_text()
+    assert "oracle-tuned for ẋ (whole record)" in text and "**whole record**" in text
