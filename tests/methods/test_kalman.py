@@ -52,16 +52,19 @@ def test_the_fast_path_is_taken_and_the_transient_is_short_of_the_signal():
 
 
 def test_steady_gains_stop_where_only_the_smoother_gain_jitters():
-    """At 3.66 Hz (constant jerk, 1 kHz) P reaches its fixed point in about 2000 steps but
-    the smoother gain keeps flipping above 1e-11 (it is computed through an ill-conditioned
-    inverse): the first two stops never come, and a frequency response used to run 10^6 steps
-    (37 s). Stopping once P rests gives the same response as the time domain."""
+    """At 3.66 Hz (constant jerk, 1 kHz) P reaches its fixed point in about 2000 steps but,
+    with some BLAS builds, the smoother gain keeps flipping above 1e-11 (it is computed
+    through an ill-conditioned inverse): the first two stops never come, and a frequency
+    response used to run 10^6 steps (37 s); with others (OpenBLAS 0.3.31, numpy 2.4) it
+    settles at step 2003. Either way, stopping once P rests stops early and gives the same
+    response as the time domain."""
     dt, bandwidth = 1e-3, 3.661359782389719
     model = polynomial_model(3, dt, bandwidth)
     _, covariance0 = initial_state(np.zeros((16, 1)), model.states)
-    assert len(covariance_recursion(model, covariance0, 6000).filter_gains) == 6000
     at_rest = covariance_recursion(model, covariance0, 6000, stop_at_rest=True)
     assert len(at_rest.filter_gains) < 3000
+    assert len(at_rest.filter_gains) <= len(covariance_recursion(model, covariance0,
+                                                                 6000).filter_gains)  # fmt: skip
     method = methods.get("kalman", bandwidth_hz=bandwidth, model_order=3)
     n, frequency = 9000, 2.0
     t = np.arange(n) * dt
