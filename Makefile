@@ -20,8 +20,8 @@ $(STAMP): pyproject.toml
 # The peers are tuned by the oracle only (the data-only criteria are for picking a setting of
 # ours); the grid and dfki-cv (5000-sample records) hold the native methods and the fast peers
 # (tvrdiff, rbfdiff, polydiff, rtsdiff, the splines and derivative's dense ones cost seconds a call).
-# On the paper signals, the native methods and the fast peers are also tuned on 5 seeds, on the
-# interior and on the whole record (where edge treatments are tuned too).
+# On the paper signals, the native methods and the fast peers are also tuned on 10 seeds (400
+# evaluations per run), on the interior and on the whole record (edge treatments tuned too).
 GRID_PEERS := pynumdiff.spectraldiff,pynumdiff.butterdiff,pynumdiff.savgoldiff,pynumdiff.kerneldiff,derivative.spectral
 SPECTRAL_PEERS := pynumdiff.spectraldiff,derivative.spectral
 
@@ -32,16 +32,16 @@ bench: $(STAMP)
 	$(BIN)/diffbench tune peers paper-signal --criteria oracle --orders 1,2 --seeds $(SEEDS) \
 	  --jobs 2 --out results
 	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal --orders 1,2 --seeds $(SEEDS) \
-	  --tuning-seeds 5 --jobs 2 --out results
+	  --tuning-seeds 10 --budget 400 --jobs 2 --out results
 	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal --orders 1,2 --seeds $(SEEDS) \
-	  --tuning-seeds 5 --region whole --jobs 2 --out results
+	  --tuning-seeds 10 --budget 400 --region whole --jobs 2 --out results
 	$(BIN)/diffbench run paper-signal-4937ms --seeds $(SEEDS) --out results
 	$(BIN)/diffbench tune native,$(SPECTRAL_PEERS) paper-signal-4937ms --criteria oracle \
 	  --orders 1,2 --seeds $(SEEDS) --jobs 2 --out results
 	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal-4937ms --orders 1,2 \
-	  --seeds $(SEEDS) --tuning-seeds 5 --jobs 2 --out results
+	  --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --jobs 2 --out results
 	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal-4937ms --orders 1,2 \
-	  --seeds $(SEEDS) --tuning-seeds 5 --region whole --jobs 2 --out results
+	  --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --region whole --jobs 2 --out results
 	$(BIN)/diffbench run jacobi-influence --seeds $(SEEDS) --out results
 	$(BIN)/diffbench paper-figures --out results
 	$(BIN)/diffbench run robot-sim --seeds $(SEEDS) --jobs 2 --out results

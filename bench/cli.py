@@ -203,6 +203,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="average the tuning loss over K seeds, TUNING_SEED .. TUNING_SEED+K-1 (default 1)",
     )
     tune.add_argument(
+        "--budget",
+        type=_positive_int,
+        default=None,
+        metavar="N",
+        help="about N evaluations per differential-evolution run (default: 100 per searched "
+        "parameter, within 150..400; one run per combination of choices)",
+    )
+    tune.add_argument(
         "--region",
         choices=("interior", "whole"),
         default="interior",
@@ -452,6 +460,7 @@ def _cmd_tune(args) -> None:
                     order,
                     args.tuning_seed,
                     cutoff,
+                    budget=args.budget,
                     tuning_seeds=args.tuning_seeds,
                     region=args.region,
                 )

@@ -71,6 +71,8 @@ class Dimension:
 
 
 REGIONS = ("interior", "whole")
+SMALL_INTEGER_RANGE = 4
+"""Integer parameters with at most this many values are searched like choices, one by one."""
 
 
 def search_space(name: str, dt: float, n_samples: int,
@@ -99,6 +101,10 @@ def search_space(name: str, dt: float, n_samples: int,
                 f"`{spec.name}` has no room to tune at dt={dt!r} s on {n_samples} samples "
                 f"(range {spec.tune_low}..{spec.tune_high})"
             )
+        if spec.integer and high - low < SMALL_INTEGER_RANGE:  # searched value by value
+            values = tuple(range(math.ceil(low), math.floor(high) + 1))
+            dimensions.append(Dimension(spec.name, "choice", 0, 0, choices=values))
+            continue
         kind = "int" if spec.integer else "float"
         dimensions.append(Dimension(spec.name, kind, low, high, log=spec.log))
     return dimensions
@@ -250,9 +256,10 @@ def tune(
     estimate that knows no ends, takes the interior only.
 
     Candidates that a method rejects (e.g. a window longer than the signal) or that leave part
-    of the interior unestimated cost +inf. ``max_evaluations`` bounds the work of the
-    differential evolution (default 100 per searched parameter, within 150..400); at most one
-    non-choice parameter is searched by a grid refined with Brent's method instead.
+    of the scored samples unestimated cost +inf. Each combination of the choice parameters is
+    searched in turn: by differential evolution over the other parameters
+    (``max_evaluations`` bounds each run: default 100 per searched parameter, within
+    150..400), or, with at most one other parameter, by a grid refined with Brent's method.
     """
     if hasattr(realisations, "x"):
         realisations = (realisations,)
@@ -318,12 +325,20 @@ def tune(
 
     defaults = {spec.name: spec.default for spec in methods.params_of(cls)}
 
+    def without_unused(params: dict[str, Any]) -> dict[str, Any]:
+        # parameters the other choices leave unused at their defaults: one evaluation each
+        try:
+            unused = cls(**params).unused_params()
+        except ValueError:
+            return params
+        return {**params, **{name: defaults[name] for name in unused}}
+
     def params_of(vector) -> dict[str, Any]:
         # every parameter: the searched ones from the vector, the others at their defaults,
-        # windows snapped to the step
+        # windows snapped to the step, the unused ones at their defaults
         params = {**defaults, **{d.name: d.value(v) for d, v in zip(dimensions, vector,
                                                                       strict=True)}}  # fmt: skip
-        return snap(params, dt, methods.params_of(cls))
+        return without_unused(snap(params, dt, methods.params_of(cls)))
 
     def loss(vector) -> float:
         params = params_of(vector)
@@ -345,21 +360,53 @@ def tune(
     if len(searched) <= 1:
         best = _grid_and_brent(dimensions, loss, params_of)
     else:
-        bounds = [d.bounds() for d in dimensions]
-        integrality = [d.kind in ("int", "choice") for d in dimensions]
-        budget = max_evaluations or min(400, max(150, 100 * len(dimensions)))
-        popsize = max(5, min(15, 40 // len(dimensions)))
-        generations = max(2, budget // (popsize * len(dimensions)) - 1)
-        result = optimize.differential_evolution(
-            loss, bounds, integrality=integrality, seed=seed, popsize=popsize,
-            maxiter=generations, tol=1e-4, polish=False, init="sobol", updating="deferred",
-        )  # fmt: skip
-        best = params_of(result.x)
+        best = _evolution_per_choice(dimensions, loss, params_of, max_evaluations, seed)
     value = cache.get(tuple(sorted(best.items())), math.inf) if best else loss([])
     return TuningResult(
         method=name, params=best, loss=value, criterion=criterion, order=order,
         evaluations=len(cache), seconds=time.perf_counter() - start, history=tuple(history),
     )  # fmt: skip
+
+
+def _evolution_per_choice(dimensions, loss, params_of, max_evaluations, seed) -> dict[str, Any]:
+    """Every combination of the choice parameters; for each, differential evolution over the
+    others (integers through ``integrality``), each run with the full budget (default 100 per
+    searched parameter, within 150..400). The best combination wins; the first on a tie.
+
+    One evolution over choices and numbers together spends its few generations on one region
+    and can miss a choice that only pays with other numbers (the spectral method's edge
+    treatment on the whole record: extension and fit_degree with the cutoff)."""
+    import itertools
+
+    choice_index = [i for i, d in enumerate(dimensions) if d.kind == "choice"]
+    free = [i for i, d in enumerate(dimensions) if d.kind != "choice"]
+    bounds = [dimensions[i].bounds() for i in free]
+    integrality = [dimensions[i].kind == "int" for i in free]
+    budget = max_evaluations or min(400, max(150, 100 * len(free)))
+    popsize = max(5, min(10, 40 // len(free)))
+    generations = max(2, budget // (popsize * len(free)) - 1)
+    best_vector, best_value = None, math.inf
+    options = [range(len(dimensions[i].choices)) for i in choice_index]
+    for combination in itertools.product(*options):
+
+        def assemble(values, combination=combination) -> list[float]:
+            vector = [0.0] * len(dimensions)
+            for index, value in zip(choice_index, combination, strict=True):
+                vector[index] = float(value)
+            for index, value in zip(free, values, strict=True):
+                vector[index] = value
+            return vector
+
+        result = optimize.differential_evolution(
+            lambda values, assemble=assemble: loss(assemble(values)), bounds,
+            integrality=integrality, seed=seed, popsize=popsize, maxiter=generations, tol=1e-4,
+            polish=False, init="sobol", updating="deferred",
+        )  # fmt: skip
+        vector = assemble(list(result.x))
+        value = loss(vector)
+        if value < best_value or best_vector is None:
+            best_vector, best_value = vector, value
+    return params_of(best_vector)
 
 
 def _grid_and_brent(dimensions, loss, params_of) -> dict[str, Any]:

@@ -62,10 +62,14 @@ def _known_problem():
 
 
 def test_tuner_finds_a_known_mixed_integer_optimum():
+    # the default budget (200 evaluations per choice here) lands within 3 %; 300 within 0.1 %
     result = tuning.tune("_test_gain", _known_problem(), 1, "oracle")
     assert result.params["k"] == 3 and result.params["mode"] == "b"
-    assert result.params["gain"] == pytest.approx(2.5, rel=0.02)
+    assert result.params["gain"] == pytest.approx(2.5, rel=0.03)
     assert result.loss < 0.05
+    finer = tuning.tune("_test_gain", _known_problem(), 1, "oracle", max_evaluations=300)
+    assert (finer.params["k"], finer.params["mode"]) == (3, "b")
+    assert finer.params["gain"] == pytest.approx(2.5, rel=1e-3)
 
 
 def test_grid_and_brent_path_finds_a_one_dimensional_optimum():
@@ -190,11 +194,13 @@ def test_tune_cli_on_k_seeds_stores_the_count_and_labels_the_rows(tmp_path, caps
     from diffbench.bench.store import Store
 
     args = ["tune", "savitzky_golay", "paper-signal", "--orders", "1", "--seeds", "2",
-            "--tuning-seeds", "3", "--out", str(tmp_path), "--no-progress"]  # fmt: skip
+            "--tuning-seeds", "3", "--budget", "150", "--out", str(tmp_path),
+            "--no-progress"]  # fmt: skip
     assert main(args) == 0
     store = Store(tmp_path / "store")
     (tuned,) = store.tunings.records.values()
     assert tuned["tuning_seed"] == 10_000 and tuned["tuning_seeds"] == 3
+    assert tuned["budget"] == 150
     rows = store.cells_frame("paper-signal")
     assert set(rows["seed"]) == {0, 1} and (rows["tuning_seeds"] == 3).all()
     assert "oracle-tuned for ẋ (3 seeds)" in (tmp_path / "paper-signal" / "rmse.md").read_text()
@@ -261,24 +267,30 @@ def test_edge_treatments_are_tuned_on_the_whole_record_only():
     # spectral's extension and fit_degree change only the ends, which the interior does not see
     assert [d.name for d in tuning.search_space("spectral", 1e-3, 1001)] == ["cutoff_hz",
                                                                              "rolloff"]  # fmt: skip
-    whole = [d.name for d in tuning.search_space("spectral", 1e-3, 1001, "whole")]
-    assert whole == ["cutoff_hz", "rolloff", "extension", "fit_degree"]
+    whole = tuning.search_space("spectral", 1e-3, 1001, "whole")
+    assert [d.name for d in whole] == ["cutoff_hz", "rolloff", "extension", "fit_degree"]
+    assert whole[3].kind == "choice" and whole[3].choices == (0, 1, 2, 3)  # a small integer
     scenario = signals.get_scenario("paper-signal")
     r = scenario.realise(10_000)
     inner = tuning.tune("spectral", r, 1, max_evaluations=150)
     assert {params["extension"] for params, _ in inner.history} == {"odd-fitted"}
     assert {params["fit_degree"] for params, _ in inner.history} == {1}
     # on the whole record the loss is the RMSE over every sample, and the ends are searched
-    realisations = [scenario.realise(s) for s in range(10_000, 10_003)]
+    realisations = [scenario.realise(s) for s in range(10_000, 10_010)]
     whole = tuning.tune("spectral", realisations, 1, region="whole")
     assert {params["extension"] for params, _ in whole.history} == set(EXTENSIONS)
+    # every combination of the choices was searched, a parameter left unused only at its default
+    tried = {(params["extension"], params["fit_degree"]) for params, _ in whole.history}
+    assert tried == {("odd-fitted", d) for d in range(4)} | {(e, 1) for e in EXTENSIONS}
     losses = []
     for q in realisations:
         error = methods.get("spectral", **whole.params)(q.x, q.dt_s, (1,))[1] - q.truth[1]
         losses.append(float(np.sqrt(np.mean(error**2))))
     assert whole.loss == pytest.approx(np.mean(losses), rel=1e-8)
     # the paper signal's ends are odd points of it (sines at integer Hz, x(0) = x(1) = 0): an
-    # odd extension through one fitted value is exact there and has the least end noise
+    # odd extension through one fitted value is exact there and has the least end noise (on
+    # 100 other seeds, whole-record RMSE of ẋ 2.15 against 2.23 for a fitted line; 5 seeds
+    # cannot tell them apart, 10 can)
     assert whole.params["extension"] == "odd-fitted" and whole.params["fit_degree"] == 0
     at_interior_setting = []
     for q in realisations:
