@@ -207,7 +207,7 @@ def build_parser() -> argparse.ArgumentParser:
         type=_positive_int,
         default=None,
         metavar="N",
-        help="about N evaluations per differential-evolution run (default: 100 per searched "
+        help="at most N evaluations per differential-evolution run (default: 100 per searched "
         "parameter, within 150..400; one run per combination of choices)",
     )
     tune.add_argument(

@@ -62,14 +62,16 @@ def _known_problem():
 
 
 def test_tuner_finds_a_known_mixed_integer_optimum():
-    # the default budget (200 evaluations per choice here) lands within 3 %; 300 within 0.1 %
+    # the default budget (about 200 evaluations per choice here) finds the integers and the
+    # choice and lands within 10 % of the gain; 400 evaluations within 0.2 %
     result = tuning.tune("_test_gain", _known_problem(), 1, "oracle")
     assert result.params["k"] == 3 and result.params["mode"] == "b"
-    assert result.params["gain"] == pytest.approx(2.5, rel=0.03)
-    assert result.loss < 0.05
-    finer = tuning.tune("_test_gain", _known_problem(), 1, "oracle", max_evaluations=300)
+    assert result.params["gain"] == pytest.approx(2.5, rel=0.1)
+    finer = tuning.tune("_test_gain", _known_problem(), 1, "oracle", max_evaluations=400)
     assert (finer.params["k"], finer.params["mode"]) == (3, "b")
-    assert finer.params["gain"] == pytest.approx(2.5, rel=1e-3)
+    assert finer.params["gain"] == pytest.approx(2.5, rel=2e-3)
+    assert finer.loss < 0.005
+    assert finer.evaluations <= 3 * 400  # three choices, each run within its budget
 
 
 def test_grid_and_brent_path_finds_a_one_dimensional_optimum():
@@ -200,7 +202,7 @@ def test_tune_cli_on_k_seeds_stores_the_count_and_labels_the_rows(tmp_path, caps
     store = Store(tmp_path / "store")
     (tuned,) = store.tunings.records.values()
     assert tuned["tuning_seed"] == 10_000 and tuned["tuning_seeds"] == 3
-    assert tuned["budget"] == 150
+    assert tuned["budget"] == 150 and tuned["evaluations"] <= 150
     rows = store.cells_frame("paper-signal")
     assert set(rows["seed"]) == {0, 1} and (rows["tuning_seeds"] == 3).all()
     assert "oracle-tuned for ẋ (3 seeds)" in (tmp_path / "paper-signal" / "rmse.md").read_text()
@@ -277,7 +279,7 @@ def test_edge_treatments_are_tuned_on_the_whole_record_only():
     assert {params["fit_degree"] for params, _ in inner.history} == {1}
     # on the whole record the loss is the RMSE over every sample, and the ends are searched
     realisations = [scenario.realise(s) for s in range(10_000, 10_010)]
-    whole = tuning.tune("spectral", realisations, 1, region="whole")
+    whole = tuning.tune("spectral", realisations, 1, region="whole", max_evaluations=400)
     assert {params["extension"] for params, _ in whole.history} == set(EXTENSIONS)
     # every combination of the choices was searched, a parameter left unused only at its default
     tried = {(params["extension"], params["fit_degree"]) for params, _ in whole.history}
