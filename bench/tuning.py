@@ -27,6 +27,7 @@ registered later needs nothing extra.
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from dataclasses import dataclass, field
@@ -378,8 +379,6 @@ def _evolution_per_choice(dimensions, loss, params_of, max_evaluations, seed) ->
     One evolution over choices and numbers together spends its few generations on one region
     and can miss a choice that only pays with other numbers (the spectral method's edge
     treatment on the whole record: extension and fit_degree with the cutoff)."""
-    import itertools
-
     choice_index = [i for i, d in enumerate(dimensions) if d.kind == "choice"]
     free = [i for i, d in enumerate(dimensions) if d.kind != "choice"]
     bounds = [dimensions[i].bounds() for i in free]
@@ -416,8 +415,6 @@ def _evolution_per_choice(dimensions, loss, params_of, max_evaluations, seed) ->
 def _grid_and_brent(dimensions, loss, params_of) -> dict[str, Any]:
     """Every combination of the choice parameters; for each, a 9-point grid on the one
     remaining parameter (if any) refined by bounded Brent search around the best grid point."""
-    import itertools
-
     choice_index = [i for i, d in enumerate(dimensions) if d.kind == "choice"]
     free = [i for i, d in enumerate(dimensions) if d.kind != "choice"]
     best_vector, best_value = None, math.inf
