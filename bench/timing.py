@@ -41,17 +41,21 @@ def timing_instance(name: str) -> methods.Method:
     return methods.get(name, **preset_entry(name, "paper-signal").params)
 
 
-def throughput(sizes=(10_000, 100_000, 1_000_000), repeats: int = 3) -> pd.DataFrame:
+def throughput(
+    sizes=(10_000, 100_000, 1_000_000), repeats: int = 3, names=None
+) -> pd.DataFrame:
     """Samples per second of each method on a seeded noisy 4 Hz sine of each size (the best of
     ``repeats`` runs after a warm-up; orders 0, 1, 2 estimated), and the growth of the time per
     sample from the smallest to the largest size timed (1 = linear). Sizes past a method's
-    :func:`size_cap` are left out (NaN)."""
+    :func:`size_cap` are left out (NaN); a method capped below the smallest size is timed at its
+    cap alone (the dense O(N³) peers), so that every method has a figure. ``names``: the
+    methods timed (default: every registered one)."""
     records = []
-    for name in methods.available():
+    for name in methods.available() if names is None else names:
         method = timing_instance(name)
         cap, _ = size_cap(name)
-        timed = [size for size in sizes if cap is None or size <= cap]
-        method(np.zeros(min(5000, cap or 5000)), DT)  # warm-up: lazy imports, kernel caches
+        timed = [size for size in sizes if cap is None or size <= cap] or [cap]
+        method(np.zeros(min(5000, timed[0] // 4)), DT)  # warm-up: lazy imports, kernel caches
         times = {}
         for size in timed:
             t = np.arange(size) * DT
@@ -65,8 +69,6 @@ def throughput(sizes=(10_000, 100_000, 1_000_000), repeats: int = 3) -> pd.DataF
             records.append({"method": name, "package": methods.package_of(name),
                             "samples": size, "seconds": best,
                             "samples_per_s": size / best})  # fmt: skip
-        if not timed:
-            continue
         growth = (times[timed[-1]] / timed[-1]) / (times[timed[0]] / timed[0])
         for record in records[-len(timed) :]:
             record["growth_per_sample"] = growth
@@ -81,7 +83,8 @@ def write_throughput(directory: Path, table: pd.DataFrame) -> list[Path]:
     lines = ["# Throughput (samples/s, orders 0-2, paper-signal presets or class defaults, best "
              "of repeats)", "",
              "Time per sample at the largest size timed over that at the smallest: 1 is linear "
-             "growth. — : not timed at that size (see the caps below).",
+             "growth (— where one size only was timed). — in a size column: not timed at that "
+             "size (see the caps below).",
              "", "| method | package | " + " | ".join(f"{s:.0e}" for s in sizes) + " | growth |",
              "|---|---|" + "---|" * (len(sizes) + 1)]  # fmt: skip
     caps = []
@@ -89,8 +92,8 @@ def write_throughput(directory: Path, table: pd.DataFrame) -> list[Path]:
         rates = group.set_index("samples")["samples_per_s"]
         cells = " | ".join(f"{rates[s]:.3g}" if s in rates.index else "—" for s in sizes)
         package = group["package"].iloc[0]
-        lines.append(f"| {name} | {package} | {cells} | "
-                     f"{group['growth_per_sample'].iloc[0]:.2f} |")  # fmt: skip
+        growth = f"{group['growth_per_sample'].iloc[0]:.2f}" if len(rates) > 1 else "—"
+        lines.append(f"| {name} | {package} | {cells} | {growth} |")
         cap, why = size_cap(name)
         if cap is not None and cap < max(sizes):
             caps.append(f"- {name}: timed up to {cap:g} samples ({why})")
