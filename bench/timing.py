@@ -41,9 +41,7 @@ def timing_instance(name: str) -> methods.Method:
     return methods.get(name, **preset_entry(name, "paper-signal").params)
 
 
-def throughput(
-    sizes=(10_000, 100_000, 1_000_000), repeats: int = 3, names=None
-) -> pd.DataFrame:
+def throughput(sizes=(10_000, 100_000, 1_000_000), repeats: int = 3, names=None) -> pd.DataFrame:
     """Samples per second of each method on a seeded noisy 4 Hz sine of each size (the best of
     ``repeats`` runs after a warm-up; orders 0, 1, 2 estimated), and the growth of the time per
     sample from the smallest to the largest size timed (1 = linear). Sizes past a method's
