@@ -69,19 +69,23 @@ class _Peer(PeerMethod):
 
 
 class SpectralDiff(_Peer):
-    """``pynumdiff.spectraldiff(x, dt, cutoff_freq, extension)``: FFT differentiation with a
-    brick-wall cutoff, the record made periodic by ``extension`` ("none" is PyNumDiff's
-    ``None``)."""
+    """``pynumdiff.spectraldiff(x, dt, cutoff_freq, extension, pad_to_flat)``: FFT
+    differentiation with a brick-wall cutoff, the record made periodic by ``extension`` ("none"
+    is PyNumDiff's ``None``; 1 in ``pad_to_flat``: the ends first padded with smoothed-in
+    repeats of the end values, discarded after)."""
 
     cutoff_freq: float = _cutoff(0.1)
     extension: str = param("odd", choices=("odd", "even", "detrend", "none"),
                            doc="how PyNumDiff makes the record periodic")  # fmt: skip
+    pad_to_flat: int = param(0, choices=(0, 1), integer=True,
+                             doc="1: pad the ends flat before the extension")  # fmt: skip
     peer_call = "pynumdiff.spectraldiff"
     presets = tuned_preset("PyNumDiff", cutoff_freq=0.037, extension="detrend")
 
     def _smooth_and_first(self, x, dt):
         extension = None if self.extension == "none" else self.extension
-        return _pynumdiff().spectraldiff(x, dt, self.cutoff_freq, extension=extension, axis=0)
+        return _pynumdiff().spectraldiff(x, dt, self.cutoff_freq, extension=extension,
+                                         pad_to_flat=bool(self.pad_to_flat), axis=0)  # fmt: skip
 
 
 class ButterDiff(_Peer):

@@ -36,6 +36,10 @@ DIRECT = {
         lambda: _pynumdiff_direct(pynumdiff.spectraldiff, 0.05, extension=None),
     ("pynumdiff.spectraldiff", (("cutoff_freq", 0.08), ("extension", "odd"))):
         lambda: _pynumdiff_direct(pynumdiff.spectraldiff, 0.08, extension="odd"),
+    ("pynumdiff.spectraldiff", (("cutoff_freq", 0.06), ("extension", "even"),
+                                ("pad_to_flat", 1))):
+        lambda: _pynumdiff_direct(pynumdiff.spectraldiff, 0.06, extension="even",
+                                  pad_to_flat=True),
     ("pynumdiff.butterdiff", (("filter_order", 3), ("cutoff_freq", 0.1),
                               ("num_iterations", 2))):
         lambda: _pynumdiff_direct(pynumdiff.butterdiff, 3, 0.1, 2),
