@@ -127,15 +127,17 @@ def samples_in_span(name: str, span_s: float, dt: float, *, odd: bool = False) -
         )
     intervals = round(ratio)
     if intervals < 1 or abs(ratio - intervals) > 1e-9 * max(1.0, abs(ratio)):
+        step = 2 if odd else 1
+        nearest = max(step, step * round(ratio / step))
         raise ValueError(
             f"`{name}`={span_s!r} s is {ratio:.6g} sampling steps of dt={dt!r} s; it must be a "
-            f"whole number of steps, e.g. {max(intervals, 2) * dt!r}"
+            f"whole number of steps{', an even one' if odd else ''}, e.g. {nearest * dt:.10g}"
         )
     if odd and intervals % 2:
+        neighbours = " or ".join(f"{k * dt:.10g}" for k in (intervals - 1, intervals + 1) if k)
         raise ValueError(
             f"`{name}`={span_s!r} s spans {intervals} steps of dt={dt!r} s, i.e. {intervals + 1} "
-            f"samples; a central window needs an odd sample count: use {(intervals - 1) * dt!r} "
-            f"or {(intervals + 1) * dt!r}"
+            f"samples; a central window needs an odd sample count: use {neighbours}"
         )
     return intervals
 

@@ -127,3 +127,23 @@ def test_bad_time_vectors(t, message):
 
 def test_uniform_step_of_a_good_time_vector():
     assert uniform_step(np.arange(11) * 0.01) == pytest.approx(0.01, rel=1e-12)
+
+
+@pytest.mark.parametrize("odd", [False, True])
+@pytest.mark.parametrize("span_s", [0.1, 0.13, 0.21, 0.3, 1.15, 0.05])
+def test_a_refused_window_suggests_only_spans_that_are_accepted(span_s, odd):
+    dt = 0.1
+    try:
+        intervals = methods.samples_in_span("window_s", span_s, dt, odd=odd)
+    except ValueError as error:
+        message = str(error)
+    else:  # an accepted span: whole, and even when odd is asked for
+        assert abs(intervals * dt - span_s) < 1e-12 and not (odd and intervals % 2)
+        return
+    suggested = message.split("e.g. ")[-1] if "e.g. " in message else message.split("use ")[-1]
+    spans = [float(text) for text in suggested.split(" or ")]
+    # printed as 1.2, not 1.2000000000000002
+    assert spans and all(len(text) <= 6 for text in suggested.split(" or "))
+    for span in spans:
+        intervals = methods.samples_in_span("window_s", span, dt, odd=odd)
+        assert intervals >= 1 and not (odd and intervals % 2)
