@@ -35,6 +35,14 @@ def size_cap(name: str, dt: float = DT) -> tuple[int | None, str]:
     return cap, why
 
 
+def timed_sizes(name: str, sizes, dt: float = DT) -> list[int]:
+    """The record lengths of ``sizes`` method ``name`` is timed on: those within its
+    :func:`size_cap`, or its cap alone when that lies below them all (the dense O(N³) peers),
+    so that every method has a figure."""
+    cap, _ = size_cap(name, dt)
+    return [size for size in sizes if cap is None or size <= cap] or [cap]
+
+
 def timing_instance(name: str) -> methods.Method:
     """Method ``name`` at its paper-signal preset (its class defaults if it has none, as a
     plugin may)."""
@@ -45,14 +53,12 @@ def throughput(sizes=(10_000, 100_000, 1_000_000), repeats: int = 3, names=None)
     """Samples per second of each method on a seeded noisy 4 Hz sine of each size (the best of
     ``repeats`` runs after a warm-up; orders 0, 1, 2 estimated), and the growth of the time per
     sample from the smallest to the largest size timed (1 = linear). Sizes past a method's
-    :func:`size_cap` are left out (NaN); a method capped below the smallest size is timed at its
-    cap alone (the dense O(N³) peers), so that every method has a figure. ``names``: the
-    methods timed (default: every registered one)."""
+    cap are left out (NaN), see :func:`timed_sizes`. ``names``: the methods timed (default:
+    every registered one)."""
     records = []
     for name in methods.available() if names is None else names:
         method = timing_instance(name)
-        cap, _ = size_cap(name)
-        timed = [size for size in sizes if cap is None or size <= cap] or [cap]
+        timed = timed_sizes(name, sizes)
         method(np.zeros(min(5000, timed[0] // 4)), DT)  # warm-up: lazy imports, kernel caches
         times = {}
         for size in timed:

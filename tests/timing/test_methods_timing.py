@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from diffbench import methods
-from diffbench.bench.timing import size_cap, timing_instance
+from diffbench.bench.timing import size_cap, timed_sizes, timing_instance
 
 DT = 1e-3
 SIZES = [10_000, 100_000, 1_000_000]
@@ -30,12 +30,11 @@ def _cases():
     cases = []
     for name in methods.available():
         cap, why = size_cap(name, DT)
-        for size in SIZES:
-            skip = cap is not None and size > cap
+        timed = timed_sizes(name, SIZES, DT)
+        for size in sorted({*SIZES, *timed}):
+            skip = size not in timed
             marks = [pytest.mark.skip(reason=f"timed up to {cap} samples: {why}")] if skip else []
             cases.append(pytest.param(name, size, marks=marks, id=f"{name}-{size}"))
-        if cap is not None and cap < SIZES[0]:  # the dense O(N³) peers: timed at their cap
-            cases.append(pytest.param(name, cap, id=f"{name}-{cap}"))
     return cases
 
 
