@@ -11,8 +11,6 @@ scipy remains the test oracle where it is accurate.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numpy.polynomial import legendre
 
@@ -73,6 +71,53 @@ def _evaluation(r: np.ndarray, at_u: np.ndarray, degree: int, order: int) -> np.
     return np.linalg.solve(r.T, derivative_rows.T).T
 
 
+def end_evaluators(
+    half_width: int,
+    degree: int,
+    order: int,
+    dt: float,
+    sample_weights: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Factors of the shifted (one-sided) estimates at the ends of a record.
+
+    The first ``m = half_width`` samples get the ``order``-th derivative, at their own offsets
+    -m..-1 from the centre of the first full window, of the (weighted) least-squares polynomial
+    of ``degree`` fitted to that window; the last ``m`` samples likewise from the last window,
+    at offsets 1..m. Returns ``(left, right, project)``: the left-end estimates are
+    ``left @ (project @ x[:2m+1])`` and the right-end ones ``right @ (project @ x[-2m-1:])``,
+    ``left`` and ``right`` of shape ``(m, degree + 1)`` and ``project`` of shape
+    ``(degree + 1, 2m + 1)`` (never the ``m x (2m+1)`` weight matrix, which would take gigabytes
+    for windows of tens of thousands of samples). Exact on sampled polynomials of ``degree``.
+    """
+    q, r, root_w = _weighted_fit(half_width, degree, sample_weights)
+    scale = 1.0 / (half_width * dt) ** order
+    offsets = np.arange(1, half_width + 1) / half_width
+    left = _evaluation(r, -offsets[::-1], degree, order) * scale
+    right = _evaluation(r, offsets, degree, order) * scale
+    return left, right, q.T * root_w[np.newaxis, :]
+
+
+def apply_fir_with_ends(
+    x: np.ndarray, taps: np.ndarray, ends: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> np.ndarray:
+    """The central FIR filter ``taps`` (2c + 1 of them) on the interior of ``x`` (time on axis
+    0) and the shifted estimates of :func:`end_evaluators` (a window of 2m + 1 >= 2c + 1
+    samples) on the first and last c samples, where the central window does not fit."""
+    left, right, project = ends
+    m, c = left.shape[0], taps.size // 2
+    n, window = x.shape[0], 2 * m + 1
+    if n < window or c > m:
+        raise ValueError(f"`x` has {n} samples, fewer than the window's {window}")
+    y, _ = apply_central_fir(x, taps)
+    if c == 0:
+        return y
+    flat = x.reshape(n, -1)
+    out = y.reshape(n, -1)
+    out[:c] = left[:c] @ (project @ flat[:window])
+    out[n - c :] = right[m - c :] @ (project @ flat[n - window :])
+    return y
+
+
 def savitzky_golay_filter(
     x: np.ndarray, half_width: int, degree: int, order: int, dt: float
 ) -> np.ndarray:
@@ -81,25 +126,10 @@ def savitzky_golay_filter(
     Interior samples use the central weights; the first and last ``half_width`` samples use the
     polynomial fitted to the first/last full window (scipy's ``mode="interp"``).
     """
-    m, n = half_width, x.shape[0]
-    window = 2 * m + 1
-    if n < window:
-        raise ValueError(f"`x` has {n} samples, fewer than the window's {window}")
     if order > degree:
         return np.zeros_like(x)
-    central = local_polynomial_weights(m, degree, order, np.array([0.0]), dt)[0]
-    y, _ = apply_central_fir(x, central)
-    # The ends evaluate the polynomial fitted to the first/last full window at offsets -m..-1
-    # (1..m): fit once per end, then evaluate, never forming the m x (2m+1) weight matrix
-    # (gigabytes for windows of tens of thousands of samples).
-    q, r, _ = _weighted_fit(m, degree, None)
-    edge = _evaluation(r, np.arange(-m, 0) / m, degree, order) / (m * dt) ** order
-    flat = x.reshape(n, -1)
-    out = y.reshape(n, -1)
-    out[:m] = edge @ (q.T @ flat[:window])
-    # The right end mirrors the left: the window reversed, offsets 1..m, signed by (-1)^n.
-    out[n - m :] = math.pow(-1, order) * (edge @ (q.T @ flat[n - window :][::-1]))[::-1]
-    return y
+    central = local_polynomial_weights(half_width, degree, order, np.array([0.0]), dt)[0]
+    return apply_fir_with_ends(x, central, end_evaluators(half_width, degree, order, dt))
 
 
 def window_samples(window_s: float, degree: int, dt: float) -> int:

@@ -18,6 +18,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from diffbench.methods._ends import trusted_samples
 from diffbench.methods._fir import apply_central_fir, fir_response
 from diffbench.methods._plugins import load_automatic_plugins, missing_hint
 from diffbench.methods._validation import check_dt, check_orders, check_signal
@@ -209,6 +210,22 @@ class Method:
             )
         self.check_step(dt)
         values, valid = self._estimate(x, dt, orders)
+        reach = self.end_reach(dt) if self.linear else None
+        if reach:
+            trusted = trusted_samples(self, x.shape[0], dt, orders)
+            for order in orders:
+                keep = valid[order] & trusted[order]
+                if not keep.any():
+                    raise ValueError(
+                        f"`x` has {x.shape[0]} samples on axis 0: too short for {self.name} "
+                        f"with {self.params()} to give any estimate of order {order} within "
+                        f"its own accuracy (its ends take up to {reach} samples each); use a "
+                        f"longer record, or settings with a shorter reach"
+                    )
+                if not keep.all():
+                    shape = (-1,) + (1,) * (x.ndim - 1)
+                    values[order] = np.where(keep.reshape(shape), values[order], np.nan)
+                valid[order] = keep
         return Estimate(values=values, valid=valid)
 
     def params(self) -> dict[str, Any]:
@@ -225,6 +242,13 @@ class Method:
         return None
 
     def check_step(self, dt: float) -> None:
+        return None
+
+    def end_reach(self, dt: float) -> int | None:
+        """How many samples at each end of a record this (linear) method estimates otherwise
+        than its interior, at step ``dt``; ``None`` (the default) when it does not say. A method
+        that says has its end estimates checked against its interior response and the ones that
+        miss masked (:mod:`methods._ends`)."""
         return None
 
     @classmethod

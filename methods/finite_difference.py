@@ -6,6 +6,7 @@ from math import factorial, inf
 
 import numpy as np
 
+from diffbench.methods._local_poly import apply_fir_with_ends, end_evaluators
 from diffbench.methods._registry import FirMethod, Preset, param, register
 
 
@@ -43,9 +44,15 @@ class FiniteDifference(FirMethod):
     .. math:: \\hat x^{(n)}_k = \\Delta t^{-n} \\sum_{j=-m}^{m} a^{(n,p)}_j x_{k+j}
 
     with the weights of :func:`central_difference_weights`. The smoothed signal (order 0) is the
-    input itself. The first and last ``m`` samples are masked (no one-sided formulas at the
-    ends). Exact on polynomials of degree ``p + n - 1`` (the symmetric stencil gains one degree
-    for ``n = 2``).
+    input itself. On the first and last m samples, where the central stencil does not fit,
+    the first (last) :math:`2m_e + 1` samples give the derivative of their least-squares
+    polynomial of degree :math:`p + n - 1` at each sample's own position (for
+    :math:`2m_e = p + n - 1` samples or one more: the one-sided differences of Fornberg's
+    tables, e.g. :math:`(-3x_0 + 4x_1 - x_2)/(2\\Delta t)` for n = 1, p = 2),
+    :math:`m_e = \\lceil (p + n - 1)/2 \\rceil`; they are kept where their response is within
+    twice the interior's error over the band the interior claims (:mod:`methods._ends`), else
+    masked. Exact on polynomials of degree ``p + n - 1`` everywhere (the symmetric stencil
+    gains one degree for ``n = 2``: not the ends).
 
     Parameters
     ----------
@@ -81,11 +88,29 @@ class FiniteDifference(FirMethod):
     def _half_width(self, order: int) -> int:
         return (order + 1) // 2 + self.accuracy_order // 2 - 1
 
-    def min_samples(self, dt: float) -> int:
-        return 2 * self._half_width(2) + 1
-
     def exact_degree(self, order: int) -> float | None:
         return inf if order == 0 else self.accuracy_order + order - 1
+
+    def _end_half_width(self, order: int) -> int:
+        return max(self._half_width(order), -(-(self.accuracy_order + order - 1) // 2))
+
+    def end_reach(self, dt: float) -> int | None:
+        return max(self._half_width(order) for order in (1, 2))
+
+    def min_samples(self, dt: float) -> int:
+        return 2 * max(self._end_half_width(order) for order in (1, 2)) + 1
+
+    def _estimate(self, x, dt, orders):
+        values, valid = {}, {}
+        for order in orders:
+            if order == 0:
+                values[0], valid[0] = x.copy(), np.ones(x.shape[0], dtype=bool)
+                continue
+            m = self._end_half_width(order)
+            ends = end_evaluators(m, self.accuracy_order + order - 1, order, dt)
+            values[order] = apply_fir_with_ends(x, self.taps(order, dt), ends)
+            valid[order] = np.ones(x.shape[0], dtype=bool)
+        return values, valid
 
     def taps(self, order: int, dt: float) -> np.ndarray:
         """Taps a_{-m..m} / dt^n of the derivative of ``order`` (order 0: the identity)."""

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from diffbench.methods._local_poly import apply_fir_with_ends, end_evaluators
 from diffbench.methods._registry import FirMethod, Preset, param, register
 from diffbench.methods._validation import MAX_WINDOW_STEPS
 from diffbench.methods.jacobi_kernel import (
@@ -22,6 +23,9 @@ from diffbench.methods.jacobi_kernel import (
     shortest_half_width,
 )
 
+ENDS = ("shifted", "central")
+"""Edge treatments: shifted windows at the ends (checked, see :mod:`methods._ends`), or none."""
+
 
 @register("jacobi")
 class Jacobi(FirMethod):
@@ -35,7 +39,21 @@ class Jacobi(FirMethod):
     and the three rules). ``window_s`` is T for the smoothed signal and the first derivative,
     ``accel_window_s`` is T for the second derivative (the paper's robot uses 0.6 s and 1.1 s).
     Windows follow the node convention T = 2M·Ts (2M+1 taps), so T/Ts must be an even whole
-    number. The first and last M samples of each order are masked (the window does not fit).
+    number. The central window does not fit on the first and last M samples of each order; with
+    ``ends="shifted"`` (the default) they are estimated from the first (last) full window with
+    the expansion point moved to their own position (Mboup, Join, Fliess 2009):
+
+    .. math::
+        \\hat x^{(n)}(t_0 + h\\xi_0) = h^{-n} \\frac{d^n}{d\\xi^n} p^*(\\xi_0), \\qquad
+        \\xi_0 = -1, -1 + 1/M, \\dots, -1/M
+
+    with :math:`p^*` the least-squares polynomial of degree n+q (n+q+1 for κ = μ with even q,
+    the same fit at the centre) on the window's samples with weights
+    :math:`(1-\\tau_j)^{\\mu}(1+\\tau_j)^{\\kappa}` (exponents below 0 taken as 0): exact on the
+    same degree as the ``least_squares`` rule. An end sample stays valid only where its
+    response is within twice the interior's error over the band the interior claims
+    (:mod:`methods._ends`); the others are masked. ``ends="central"`` masks all of them (the
+    paper's figures).
     Exact on polynomials of degree n+q (n+q+1 for κ = μ with even q) with the
     ``least_squares`` rule; the ``trapezoid`` and ``linear`` rules approximate the continuous
     filter (O(Ts²) for ``linear``; far better for ``trapezoid`` when min(κ, μ) ≥ 2).
@@ -63,9 +81,13 @@ class Jacobi(FirMethod):
         Window T for order 2, seconds.
     rule : {"trapezoid", "linear", "least_squares"}
         Discretisation; only ``linear`` admits κ or μ < 0.
+    ends : {"shifted", "central"}
+        Edge treatment: shifted windows (checked, see above) or none (masked).
 
     References
     ----------
+    M. Mboup, C. Join, M. Fliess, "Numerical differentiation with annihilators in noisy
+    environment", Numer. Algorithms 50 (2009) 439-467 (shifted windows);
     D.-Y. Liu, O. Gibaru, W. Perruquetti, "Differentiation by integration with Jacobi
     polynomials", J. Comput. Appl. Math. 235 (2011) 3015-3032; Q. Guo, M. Gautier, D.-Y. Liu,
     W. Perruquetti, IEEE/ASME AIM 2015, sec. III.
@@ -118,6 +140,12 @@ class Jacobi(FirMethod):
     )
     rule: str = param(
         "trapezoid", choices=RULES, doc="discretisation of the integral (linear: any kappa, mu)"
+    )
+    ends: str = param(
+        "shifted",
+        choices=ENDS,
+        doc="shifted: the ends from the first/last window at their own offsets; central: masked",
+        ends_only=True,
     )
 
     presets = {
@@ -277,11 +305,35 @@ class Jacobi(FirMethod):
     def min_samples(self, dt: float) -> int:
         return 2 * max(self._half_width(order, dt) for order in (0, 1, 2)) + 1
 
+    def end_reach(self, dt: float) -> int | None:
+        if self.ends == "central":
+            return None
+        return max(self._half_width(order, dt) for order in (0, 1, 2))
+
+    def _fit_degree(self, order: int) -> int:
+        """Degree of the weighted fit whose derivative the estimate is: n + q, plus one for
+        κ = μ with even q (the same fit at the centre, by symmetry)."""
+        bonus = 1 if self.kappa == self.mu and self.q % 2 == 0 else 0
+        return order + self.q + bonus
+
+    def _estimate(self, x, dt, orders):
+        if self.ends == "central":
+            return super()._estimate(x, dt, orders)
+        values, valid = {}, {}
+        for order in orders:
+            m = self._half_width(order, dt)
+            nodes = np.arange(-m, m + 1) / m
+            weights = (1 - nodes) ** max(self.mu, 0.0) * (1 + nodes) ** max(self.kappa, 0.0)
+            degree = min(self._fit_degree(order), 2 * m)
+            ends = end_evaluators(m, degree, order, dt, sample_weights=weights)
+            values[order] = apply_fir_with_ends(x, self.taps(order, dt), ends)
+            valid[order] = np.isfinite(values[order]).reshape(x.shape[0], -1).all(axis=1)
+        return values, valid
+
     def exact_degree(self, order: int) -> float | None:
         if self.rule != "least_squares":
             return None
-        bonus = 1 if self.kappa == self.mu and self.q % 2 == 0 else 0
-        return order + self.q + bonus
+        return self._fit_degree(order)
 
 
 def _edge(works, inside: float, outside: float) -> float:

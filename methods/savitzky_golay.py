@@ -27,7 +27,9 @@ class SavitzkyGolay(FirMethod):
     window spans ``window_s = 2m * dt`` (outer samples on the window's ends; ``2m + 1`` samples,
     odd), the same node convention as the Jacobi window T. Near the ends scipy's ``"interp"``
     mode evaluates the polynomial fitted to the first/last full window, so every sample is
-    estimated (valid everywhere). Exact on polynomials of degree <= ``degree``.
+    estimated; an end sample stays valid only where its response is within twice the
+    interior's error over the band the interior claims (:mod:`methods._ends`; the others are
+    masked). Exact on polynomials of degree <= ``degree``, ends included.
 
     Parameters
     ----------
@@ -79,6 +81,9 @@ class SavitzkyGolay(FirMethod):
 
     def min_samples(self, dt: float) -> int:
         return self._samples(dt)
+
+    def end_reach(self, dt: float) -> int | None:
+        return self._samples(dt) // 2
 
     def exact_degree(self, order: int) -> float | None:
         return self.degree

@@ -28,7 +28,9 @@ class SindySmoothing(Method):
     scipy 1.17 (scipy issue #20825), and the two agree to rounding elsewhere (tested). The
     differences are pysindy's
     ``FiniteDifference(order=p, d=n)``: central of accuracy ``p`` inside, one-sided of the same
-    accuracy at the ends, so every sample is estimated. Exact on polynomials of degree
+    accuracy at the ends, so every sample is estimated; an end sample stays valid only where
+    its response is within twice the interior's error over the band the interior claims
+    (:mod:`methods._ends`; the others are masked). Exact on polynomials of degree
     ``min(d, p + n - 1)``.
 
     Parameters
@@ -86,6 +88,10 @@ class SindySmoothing(Method):
 
     def min_samples(self, dt: float) -> int:
         return max(self._samples(dt), 2 + self.accuracy_order + 1)
+
+    def end_reach(self, dt: float) -> int | None:
+        # the smoother's shifted fits, then pysindy's one-sided differences
+        return self._samples(dt) // 2 + self.accuracy_order + 2
 
     def exact_degree(self, order: int) -> float | None:
         return self.degree if order == 0 else min(self.degree, self.accuracy_order + order - 1)

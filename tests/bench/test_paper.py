@@ -62,7 +62,9 @@ def test_figure1_has_every_method_and_is_finite_in_the_interior(figure1):
     interior = data["interior"].to_numpy(dtype=bool)
     assert interior.sum() == 701  # 1 s at 1 ms less 0.15 s at each end, both ends included
     assert np.isfinite(errors[interior].to_numpy()).all()
-    assert data["jacobi_velocity_error"].isna().sum() == 2 * 105  # half-window 0.105 s
+    # the central window misses 105 samples at each end; the shifted windows fill those that
+    # are as accurate as the interior (methods._ends)
+    assert 0 < data["jacobi_velocity_error"].isna().sum() < 2 * 105
     assert png.stat().st_size > 10_000
 
 
@@ -85,7 +87,11 @@ def test_figure1_errors_are_estimate_minus_truth(figure1):
         assert row["finite_difference_acceleration_error"] == pytest.approx(
             second - acceleration, rel=1e-9, abs=1e-6
         )
-    assert np.isnan(data["finite_difference_velocity_error"].iloc[[0, -1]]).all()
+    # the end samples: the one-sided 3-point differences
+    first = (-3 * x[0] + 4 * x[1] - x[2]) / (2 * dt)
+    assert data["finite_difference_velocity_error"].iloc[0] == pytest.approx(
+        first - data["velocity_true"].iloc[0], rel=1e-9, abs=1e-9
+    )
 
 
 def test_figure5_has_every_method_with_a_robot_preset():

@@ -106,7 +106,7 @@ def test_parameters_that_do_not_fit_the_signal(name, params, dt, message):
 def test_window_tolerance_accepts_floating_point_spans():
     # 0.21 / 0.001 = 209.99999999999997 in floating point: a whole number within tolerance.
     estimate = methods.get("savitzky_golay", window_s=0.21, degree=3)(GOOD, DT)
-    assert estimate.valid[1].all()
+    assert estimate.valid[1][105:-105].all()  # 211 samples: the central window fits there
 
 
 @pytest.mark.parametrize(

@@ -45,9 +45,28 @@ def test_finite_difference_matches_pysindy_on_the_interior(accuracy):
     estimate = methods.get("finite_difference", accuracy_order=accuracy)(x, DT)
     for order in (1, 2):
         reference = FiniteDifference(order=accuracy, d=order, drop_endpoints=True)(x, t=DT)
-        np.testing.assert_array_equal(np.isfinite(reference[:, 0]), estimate.valid[order])
-        valid = estimate.valid[order]
-        np.testing.assert_allclose(estimate[order][valid], reference[valid], rtol=1e-10)
+        interior = np.isfinite(reference[:, 0])
+        assert estimate.valid[order][interior].all()
+        np.testing.assert_allclose(estimate[order][interior], reference[interior], rtol=1e-10)
+
+
+@pytest.mark.parametrize("accuracy", [2, 4, 6])
+def test_finite_difference_ends_are_the_derivative_of_numpys_polynomial_fit(accuracy):
+    """Where the central stencil does not fit: the derivative of numpy's least-squares
+    polynomial of degree p + n - 1 through the first (last) 2 m_e + 1 samples, at each
+    sample's own position."""
+    x = np.random.default_rng(1).standard_normal(200)
+    method = methods.get("finite_difference", accuracy_order=accuracy)
+    values, _ = method._estimate(x, DT, (1, 2))  # before the validity check masks any
+    for order in (1, 2):
+        degree = accuracy + order - 1
+        window = 2 * -(-degree // 2) + 1
+        t = np.arange(window) * DT
+        ends = accuracy // 2 + (order + 1) // 2 - 1  # where the central stencil does not fit
+        first = np.polynomial.Polynomial.fit(t, x[:window], degree).deriv(order)
+        last = np.polynomial.Polynomial.fit(t, x[-window:], degree).deriv(order)
+        np.testing.assert_allclose(values[order][:ends], first(t)[:ends], rtol=1e-8)
+        np.testing.assert_allclose(values[order][-ends:], last(t)[-ends:], rtol=1e-8)
 
 
 @pytest.mark.parametrize(("window", "degree"), [(11, 2), (21, 3), (51, 5), (31, 4)])
@@ -60,7 +79,12 @@ def test_savitzky_golay_matches_scipy_where_scipy_is_accurate(window, degree):
             x, window, degree, deriv=order, delta=DT, axis=0, mode="interp"
         )
         scale = np.max(np.abs(reference))
-        np.testing.assert_allclose(estimate[order], reference, rtol=0, atol=1e-10 * scale)
+        valid = estimate.valid[order]
+        assert valid[window // 2 : -(window // 2)].all()  # only end samples may be masked
+        np.testing.assert_allclose(estimate[order][valid], reference[valid], rtol=0,
+                                   atol=1e-10 * scale)  # fmt: skip
+        unchecked, _ = method._estimate(x, DT, (order,))  # scipy's ends, before masking
+        np.testing.assert_allclose(unchecked[order], reference, rtol=0, atol=1e-10 * scale)
 
 
 def test_savitzky_golay_weights_stay_exact_where_scipy_loses_accuracy():
@@ -92,31 +116,46 @@ def test_sindy_smoothing_matches_pysindy_called_directly(window, degree, accurac
         )
         reference = sfd(x, t=DT)
         scale = np.max(np.abs(reference))
-        np.testing.assert_allclose(estimate[order], reference, rtol=0, atol=1e-9 * scale)
-        np.testing.assert_allclose(estimate[0], sfd.smoothed_x_, rtol=0, atol=1e-12 * 5)
+        valid = estimate.valid[order]
+        assert valid[window:-window].all()  # only end samples may be masked
+        np.testing.assert_allclose(estimate[order][valid], reference[valid], rtol=0,
+                                   atol=1e-9 * scale)  # fmt: skip
+        valid = estimate.valid[0]
+        np.testing.assert_allclose(estimate[0][valid], sfd.smoothed_x_[valid], rtol=0, atol=5e-12)
 
 
 def test_butterworth_matches_sosfiltfilt_and_central_differences():
-    x = np.random.default_rng(5).standard_normal((1000, 2))
-    estimate = methods.get("butterworth", order=6, cutoff_hz=25.0)(x, DT)
+    x = np.random.default_rng(5).standard_normal((2000, 2))
+    method = methods.get("butterworth", order=6, cutoff_hz=25.0)
+    values, _ = method._estimate(x, DT, (0, 1, 2))  # before the validity check masks any
     sos = sps.butter(6, 25.0, output="sos", fs=1 / DT)
-    smooth = sps.sosfiltfilt(sos, x, axis=0)
-    np.testing.assert_allclose(estimate[0], smooth, rtol=1e-12, atol=1e-15)
+    # odd extension over the settling length: 683 steps for order 6 at 25 Hz and 1 kHz
+    smooth = sps.sosfiltfilt(sos, x, axis=0, padtype="odd", padlen=683)
+    np.testing.assert_allclose(values[0], smooth, rtol=1e-12, atol=1e-15)
     velocity = (smooth[2:] - smooth[:-2]) / (2 * DT)
     acceleration = (smooth[2:] - 2 * smooth[1:-1] + smooth[:-2]) / DT**2
-    np.testing.assert_allclose(estimate[1][1:-1], velocity, rtol=1e-9, atol=1e-9)
-    np.testing.assert_allclose(estimate[2][1:-1], acceleration, rtol=1e-9, atol=1e-6)
-    assert not estimate.valid[1][0] and not estimate.valid[2][-1]
+    np.testing.assert_allclose(values[1][1:-1], velocity, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(values[2][1:-1], acceleration, rtol=1e-9, atol=1e-6)
+    # the end samples: one-sided differences of the 3-point polynomial
+    np.testing.assert_allclose(
+        values[1][0], (-3 * smooth[0] + 4 * smooth[1] - smooth[2]) / (2 * DT)
+    )
+    np.testing.assert_allclose(values[2][-1], (smooth[-1] - 2 * smooth[-2] + smooth[-3]) / DT**2)
+    estimate = method(x, DT)
+    for order in (0, 1, 2):
+        valid = estimate.valid[order]
+        assert valid[683:-683].all() and not valid[0]
+        np.testing.assert_array_equal(estimate[order][valid], values[order][valid])
 
 
-def test_butterworth_is_exact_on_a_line_away_from_the_ends():
+def test_butterworth_is_exact_on_a_line_up_to_the_ends():
+    """The odd extension continues a line, so the filter passes it to the first sample."""
     t = np.arange(4001) * DT
     line = 0.3 + 2.5 * t
-    estimate = methods.get("butterworth", order=6, cutoff_hz=25.0)(line, DT)
-    interior = slice(1000, 3001)  # 1 s from the ends: the start-up transient has decayed
-    np.testing.assert_allclose(estimate[0][interior], line[interior], atol=1e-9)
-    np.testing.assert_allclose(estimate[1][interior], 2.5, atol=1e-6)
-    np.testing.assert_allclose(estimate[2][interior], 0.0, atol=1e-3)
+    values, _ = methods.get("butterworth", order=6, cutoff_hz=25.0)._estimate(line, DT, (0, 1, 2))
+    np.testing.assert_allclose(values[0], line, atol=1e-9)
+    np.testing.assert_allclose(values[1], 2.5, atol=1e-6)
+    np.testing.assert_allclose(values[2], 0.0, atol=1e-3)
 
 
 # --- the noiseless paper signal, against its analytic frequency response -------------------

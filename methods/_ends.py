@@ -1,0 +1,117 @@
+"""Which estimates at the ends of a record to trust: measured, for every linear local method.
+
+A linear method estimates the ends of a record with other weights than its interior (one-sided
+kernels, filter start-up transients, a prior). Whether an end sample deserves to be marked
+valid is measured here, the same way for every such method, by probing it with sinusoids:
+
+1. The *band*: the frequencies where the method's interior (steady-state) response
+   :math:`H_c(f)` is within ``BAND_TOLERANCE`` (5 %) of the ideal :math:`D(f) = (i2\\pi f)^n`,
+   from 0 up to the first frequency where it is not. It is where the method claims to work.
+2. The *per-sample response* :math:`H_k(f)`: the method is run on :math:`e^{i2\\pi f t}`
+   (cosine and sine as two channels) at ``PROBE_FREQUENCIES`` frequencies spread over the
+   band; :math:`H_k(f) = \\hat y_k e^{-i2\\pi f t_k}` (linearity).
+3. Sample k **passes** when its worst error over the band is at most ``END_ERROR_FACTOR``
+   times the interior's worst error over the same band:
+
+   .. math:: \\max_{f} |H_k(f) - D(f)| \\le c \\max_{f} |H_c(f) - D(f)|
+
+   so on any signal within the band an end estimate marked valid is at most about ``c`` times
+   as wrong as the method's own interior estimate. Each end is trusted from the first sample
+   after which every sample towards the interior passes; the samples before it are masked
+   (NaN), so the valid samples are one unbroken stretch.
+
+Only the first and last ``reach`` samples can differ from the interior (``Method.end_reach``),
+so the probe runs on ``min(n, 2 reach + 1)`` samples, whatever the record's length; the result
+is cached per (method, length, step).
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+BAND_TOLERANCE = 0.05
+"""Relative error of the interior response that bounds the band the method claims."""
+
+END_ERROR_FACTOR = 2.0
+"""How many times the interior's worst in-band error an end sample may have and stay valid."""
+
+PROBE_FREQUENCIES = 24
+"""Frequencies probed across the band."""
+
+_BAND_GRID = np.geomspace(1e-6, 1.0, 600)
+"""Fractions of the Nyquist frequency searched for the band's edge (log-spaced, so that long
+windows with a narrow band are resolved)."""
+
+
+def ideal_response(frequency_hz: np.ndarray, order: int) -> np.ndarray:
+    """:math:`(i 2\\pi f)^n`: the response of the exact derivative of ``order``."""
+    return (2j * np.pi * frequency_hz) ** order
+
+
+def lowest_band_hz(dt: float) -> float:
+    """The first frequency of the band search: a band edge this low means no band at all."""
+    return float(_BAND_GRID[0] * (0.5 / dt))
+
+
+def band_edge_hz(central_response, order: int, dt: float) -> float:
+    """Highest frequency up to which ``central_response(f)`` stays within ``BAND_TOLERANCE`` of
+    the ideal (relative), found on a log grid from 1e-6 of Nyquist; at least the grid's first
+    point (:func:`lowest_band_hz`), also when even there the response misses by more (a method
+    that claims no band: its ends are then compared with its interior at that frequency)."""
+    frequencies = _BAND_GRID * (0.5 / dt)
+    ideal = ideal_response(frequencies, order)
+    relative = np.abs(central_response(frequencies) - ideal) / np.abs(ideal)
+    failing = np.flatnonzero(~(relative <= BAND_TOLERANCE))
+    last = (failing[0] - 1) if failing.size else frequencies.size - 1
+    return float(frequencies[max(last, 0)])
+
+
+def trusted_samples(method, n_samples: int, dt: float, orders: tuple[int, ...]) -> dict:
+    """Boolean masks (one per order) of the samples whose estimate is trusted (see the module
+    docstring). ``method`` is linear and declares ``end_reach(dt)``; cached."""
+    return _trusted(method, int(n_samples), float(dt), tuple(orders))
+
+
+@functools.lru_cache(maxsize=512)
+def _trusted(method, n_samples: int, dt: float, orders: tuple[int, ...]) -> dict:
+    reach = method.end_reach(dt)
+    length = min(n_samples, max(2 * reach + 1, method.min_samples(dt)))
+    edges = {
+        order: band_edge_hz(lambda f, o=order: method._response(f, dt, o), order, dt)
+        for order in orders
+    }
+    masks = {}
+    time = np.arange(length) * dt
+    for order in orders:
+        frequencies = np.linspace(1.0 / PROBE_FREQUENCIES, 1.0, PROBE_FREQUENCIES) * edges[order]
+        phase = 2 * np.pi * np.outer(time, frequencies)
+        probe = np.concatenate([np.cos(phase), np.sin(phase)], axis=1)
+        values, _ = method._estimate(probe, dt, (order,))
+        output = values[order][:, :PROBE_FREQUENCIES] + 1j * values[order][:, PROBE_FREQUENCIES:]
+        response = output * np.exp(-1j * phase)
+        ideal = ideal_response(frequencies, order)
+        with np.errstate(invalid="ignore"):
+            error = np.max(np.abs(response - ideal[None, :]), axis=1)
+        interior = np.max(np.abs(method._response(frequencies, dt, order) - ideal))
+        floor = 1e-9 * np.max(np.abs(ideal))
+        good = error <= END_ERROR_FACTOR * interior + floor  # NaN (masked) compares False
+        ends = min(reach, length // 2)
+        mask = np.ones(n_samples, dtype=bool)
+        mask[:ends] = _from_last_failure(good[:ends])
+        mask[n_samples - ends :] = _from_last_failure(good[length - ends :][::-1])[::-1]
+        if length == n_samples and length % 2 and not good[length // 2]:
+            mask[length // 2] = False
+        masks[order] = mask
+    return masks
+
+
+def _from_last_failure(passes: np.ndarray) -> np.ndarray:
+    """True from just after the last failing sample on: an end is trusted from the first sample
+    after which every sample towards the interior passes (no holes in the mask)."""
+    failing = np.flatnonzero(~passes)
+    trusted = np.ones(passes.size, dtype=bool)
+    if failing.size:
+        trusted[: failing[-1] + 1] = False
+    return trusted

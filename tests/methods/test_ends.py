@@ -1,0 +1,139 @@
+"""The ends of a record: every sample marked valid is about as accurate as the interior.
+
+Exact truth: clean sums of sinusoids inside the band each method claims, the paper's clean
+test signal, and an independent weighted polynomial fit (numpy) for the shifted Jacobi windows.
+"""
+
+import numpy as np
+import pytest
+
+from diffbench import methods, signals
+from diffbench.methods import _ends
+from tests.methods.conftest import method_cases
+
+DT = 1e-3
+FACTOR = 3.0
+"""What a valid end sample's error may be, at most, times the interior's worst error (the
+validity rule asks for 2 over the band; a sum of sinusoids adds a little)."""
+
+
+@pytest.mark.parametrize(("name", "params"), method_cases())
+def test_valid_end_samples_are_within_the_stated_factor_of_the_interior(name, params):
+    method = methods.get(name, **params)
+    reach = method.end_reach(DT) if method.linear else None
+    if not reach:
+        pytest.skip(f"{name} does not declare end_reach: its end estimates are not checked")
+    n = max(2 * reach + 2001, 3 * method.min_samples(DT))
+    t = np.arange(n) * DT
+    rng = np.random.default_rng(17)
+    for order in (0, 1, 2):
+        edge = _ends.band_edge_hz(lambda f, o=order: method.frequency_response(f, DT, o), order, DT)
+        if edge <= _ends.lowest_band_hz(DT):
+            continue  # within 5 % nowhere (e.g. a GP that halves even a constant): no band
+        frequencies = edge * np.array([0.35, 0.7, 1.0])
+        phases = rng.uniform(0, 2 * np.pi, 3)
+        x = np.sin(2 * np.pi * np.outer(t, frequencies) + phases).sum(axis=1)
+        truth = sum(
+            (2 * np.pi * f) ** order * np.sin(2 * np.pi * f * t + p + order * np.pi / 2)
+            for f, p in zip(frequencies, phases, strict=True)
+        )
+        estimate = method(x, DT, orders=(order,))
+        error = np.abs(estimate[order] - truth)
+        middle = np.zeros(n, dtype=bool)
+        middle[reach : n - reach] = True
+        ends = estimate.valid[order] & ~middle
+        assert estimate.valid[order][middle].all()
+        scale = 1e-9 * (2 * np.pi * edge) ** order
+        if ends.any():
+            worst_end, worst_middle = error[ends].max(), error[middle].max()
+            assert worst_end <= FACTOR * worst_middle + scale, (order, worst_end, worst_middle)
+
+
+NATIVE_WITH_PAPER_PRESET = [
+    name
+    for name in methods.available()
+    if "paper-signal" in methods.method_class(name).presets
+    and methods.package_of(name).startswith("diffbench")
+]
+
+
+NOT_YET_CHECKED = {
+    "gaussian_process_ml": "its hyperparameters come from the data (not linear): no probe yet",
+    "smoothing_spline": "its smoothing comes from the data by GCV (not linear): no probe yet",
+    "total_variation": "not linear: no probe yet",
+    "gaussian_process": "linear but global: its reach is not declared yet, so no probe",
+}
+"""Methods whose ends are still marked valid unchecked, and fail issue 17's measure (xfail,
+strict: the test says when they pass)."""
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(name, marks=pytest.mark.xfail(reason=NOT_YET_CHECKED[name], strict=True))
+        if name in NOT_YET_CHECKED
+        else name
+        for name in NATIVE_WITH_PAPER_PRESET
+    ],
+)
+def test_on_the_clean_paper_signal_valid_ends_are_within_three_times_the_interior(name):
+    """Issue 17's measure: on the clean paper signal, the worst error on valid samples outside
+    the scored interior is at most 3 times the worst interior error (it was 13 to 410 times
+    for Butterworth, Kalman, Savitzky-Golay and SINDy, whose ends were all marked valid)."""
+    realisation = signals.get_scenario("paper-signal-clean").realise(0)
+    estimate = methods.preset(name, "paper-signal")(realisation.x, realisation.dt_s)
+    for order in (1, 2):
+        error = np.abs(estimate[order] - realisation.truth[order])
+        valid = estimate.valid[order]
+        inner, ends = realisation.interior & valid, valid & ~realisation.interior
+        assert inner.sum() > 0.9 * realisation.interior.sum()
+        if ends.any():
+            assert error[ends].max() <= 3 * error[inner].max(), (order, error[ends].max())
+
+
+def test_kalman_starts_on_the_data_not_on_its_prior():
+    """Clean sin 3t, 31 samples at dt = 0.1 s: the vague prior takes the L2 error of ẋ to 0.08
+    (1.38 with the prior ten times the least-squares start's)."""
+    t = np.arange(31) * 0.1
+    estimate = methods.get("kalman", bandwidth_hz=2.0, model_order=3)(np.sin(3 * t), 0.1)
+    valid = estimate.valid[1]
+    assert valid.mean() >= 0.6
+    error = estimate[1][valid] - 3 * np.cos(3 * t[valid])
+    assert np.linalg.norm(error) < 0.1
+    # the first sample, masked by the end check, is now 0.06 off (it was 1.33 off)
+    values, _ = methods.get("kalman", bandwidth_hz=2.0, model_order=3)._estimate(
+        np.sin(3 * t)[:, None], 0.1, (1,)
+    )
+    assert abs(values[1][0, 0] - 3.0) < 0.1
+
+
+@pytest.mark.parametrize(("kappa", "mu", "q"), [(2.0, 5.0, 3), (6.0, 6.0, 2), (0.0, 0.0, 4)])
+def test_jacobi_shifted_ends_are_numpys_weighted_fit_at_each_sample(kappa, mu, q):
+    """The first and last M samples: the n-th derivative, at the sample's own position, of the
+    polynomial numpy fits to the first (last) window with the weights (1-τ)^μ (1+τ)^κ."""
+    method = methods.get("jacobi", kappa=kappa, mu=mu, q=q, window_s=0.04, accel_window_s=0.04)
+    x = np.random.default_rng(3).standard_normal(300)
+    values, _ = method._estimate(x, DT, (0, 1, 2))
+    m = 20
+    tau = np.arange(-m, m + 1) / m
+    weights = (1 - tau) ** mu * (1 + tau) ** kappa
+    t = np.arange(2 * m + 1) * DT
+    for order in (0, 1, 2):
+        degree = order + q + (1 if kappa == mu and q % 2 == 0 else 0)
+        first = np.polynomial.Polynomial.fit(t, x[: 2 * m + 1], degree, w=np.sqrt(weights))
+        last = np.polynomial.Polynomial.fit(t, x[-2 * m - 1 :], degree, w=np.sqrt(weights))
+        scale = np.max(np.abs(values[order][m:-m]))
+        np.testing.assert_allclose(values[order][:m], first.deriv(order)(t[:m]),
+                                   rtol=0, atol=1e-8 * scale)  # fmt: skip
+        np.testing.assert_allclose(values[order][-m:], last.deriv(order)(t[-m:]),
+                                   rtol=0, atol=1e-8 * scale)  # fmt: skip
+
+
+def test_jacobi_central_mode_keeps_the_papers_masked_ends():
+    realisation = signals.get_scenario("paper-signal-clean").realise(0)
+    central = methods.get("jacobi", ends="central")(realisation.x, DT)
+    shifted = methods.get("jacobi")(realisation.x, DT)
+    assert not central.valid[1][:105].any() and central.valid[1][105:-105].all()
+    assert shifted.coverage(1) > central.coverage(1)
+    both = central.valid[1]
+    np.testing.assert_array_equal(central[1][both], shifted[1][both])
