@@ -233,7 +233,13 @@ def build_parser() -> argparse.ArgumentParser:
     figures = commands.add_parser(
         "paper-figures",
         parents=[out, plug],
-        help="the paper's figures 1-3 (PNG + CSV), frequency table",
+        help="the paper's figures 1-3 (PNG + CSV), frequency table, error against position",
+    )
+    figures.add_argument(
+        "--seeds",
+        type=_positive_int,
+        default=20,
+        help="noise seeds of the error-against-position figure (default 20)",
     )
     figures.set_defaults(handler=_cmd_paper_figures)
 
@@ -516,6 +522,7 @@ def _cmd_paper_figures(args) -> None:
     directory.mkdir(parents=True, exist_ok=True)
     written = paper.write_figure1(directory) + paper.write_figure2(directory)
     written += paper.write_figure3(directory) + paper.write_frequency_table(directory)
+    written += paper.write_error_profile(directory, seeds=args.seeds)
     for path in written:
         print(path)
 

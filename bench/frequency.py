@@ -72,10 +72,11 @@ def decompose_error(method: Method, realisation, order: int) -> ErrorParts:
     on the realisation's interior (where the method is valid)."""
     if not method.linear:
         raise ValueError(f"`method` {method.name!r} is not linear: its error does not split")
-    dt = realisation.dt_s
-    noisy = method(realisation.x, dt, orders=(order,))
-    clean = method(realisation.truth[0], dt, orders=(order,))
-    noise_only = method(realisation.noise, dt, orders=(order,))
+    from diffbench.bench.scores import estimate_on
+
+    noisy = estimate_on(method, realisation, orders=(order,))
+    clean = estimate_on(method, realisation, realisation.truth[0], orders=(order,))
+    noise_only = estimate_on(method, realisation, realisation.noise, orders=(order,))
     mask = realisation.interior & noisy.valid[order]
     truth = realisation.truth[order]
 

@@ -22,7 +22,11 @@ from diffbench.bench.stats import ranking
 from diffbench.signals.scenarios import (
     GRID_NOISE_LEVELS,
     GRID_NOISE_TYPES,
+    GRID_SAMPLING_LEVEL,
+    GRID_SAMPLING_STEPS_S,
+    GRID_SAMPLINGS,
     GRID_STEPS_S,
+    grid_sampling_name,
     grid_scenario_name,
     grid_scenario_names,
     vanishing_disturbances,
@@ -34,6 +38,21 @@ BUDGET = 150  # evaluations per tuning: the grid tunes 36 x 7 x 2 times
 
 def task_names() -> list[str]:
     return grid_scenario_names()
+
+
+def _grid_tasks() -> list[tuple[str, float, float, str | None]]:
+    """(noise label, level, step, scenario name or None where the grid has none) per row and
+    column of the winners tables: the noise kinds, then the irregular samplings (Gaussian
+    noise; only at the steps they are run at)."""
+    rows = [(kind, level, step, grid_scenario_name(kind, level, step))
+            for kind in GRID_NOISE_TYPES for level in GRID_NOISE_LEVELS
+            for step in GRID_STEPS_S]  # fmt: skip
+    for sampling, model in GRID_SAMPLINGS.items():
+        label = f"gaussian, {model.describe()}"
+        rows += [(label, GRID_SAMPLING_LEVEL, step,
+                  grid_sampling_name(sampling, step) if step in GRID_SAMPLING_STEPS_S else None)
+                 for step in GRID_STEPS_S]  # fmt: skip
+    return rows
 
 
 def tuning_jobs(
@@ -62,52 +81,56 @@ def _tuned_jobs(found: Mapping[TuningJob, dict]) -> list[TuningJob]:
     return [job for job, record in found.items() if record["params"]]
 
 
-def winners(rows: pd.DataFrame, order: int = 2) -> pd.DataFrame:
-    """Per grid task: the entry with the least mean interior RMSE of the derivative of
-    ``order`` (among those tuned for it), the runner-up, the paired t-test between them and the
+def winners(rows: pd.DataFrame, order: int = 2, region: str = "interior") -> pd.DataFrame:
+    """Per grid task: the entry with the least mean RMSE of the derivative of ``order`` on
+    ``region`` (among those tuned for it), the runner-up, the paired t-test between them and the
     smallest difference it detects 80 % of the time; ``vanishing`` names a disturbance that
-    aliases away at the step (no winner is named when nothing is left of the noise)."""
+    aliases away at the step (no winner is named when nothing is left of the noise).
+
+    ``region`` is ``"interior"`` (the samples every method is scored on) or ``"valid"`` (the
+    whole record: each entry's own valid samples, entries covering less than
+    :data:`diffbench.bench.tables.WHOLE_COVERAGE` of it on some seed left out).
+    """
+    if region not in ("interior", "valid"):
+        raise ValueError(f"`region` must be 'interior' or 'valid', got {region!r}")
+    if region == "valid":
+        rows = tables.covering_whole(rows, order, keys=("method", "params"))
     records = []
-    for kind in GRID_NOISE_TYPES:
-        for level in GRID_NOISE_LEVELS:
-            for step in GRID_STEPS_S:
-                name = grid_scenario_name(kind, level, step)
-                vanishing = vanishing_disturbances(signals.get_scenario(name))
-                noiseless = len(vanishing) == len(signals.get_scenario(name).noise.models)
-                tuned_for = (rows["tuned_order"] == order).fillna(False).astype(bool)
-                mine = rows[
-                    (rows["task"] == name)
-                    & tuned_for
-                    & (rows["metric"] == "rmse")
-                    & (rows["order"] == order)
-                    & (rows["region"] == "interior")
-                ]
-                record = {
-                    "noise": kind,
-                    "level": level,
-                    "step_ms": step * 1e3,
-                    "vanishing": "; ".join(vanishing),
-                    "noiseless": noiseless,
+    for kind, level, step, name in _grid_tasks():
+        record = {"region": region, "noise": kind, "level": level, "step_ms": step * 1e3,
+                  "task": name, "vanishing": "", "noiseless": False}  # fmt: skip
+        if name is None:
+            records.append(record)
+            continue
+        scenario = signals.get_scenario(name)
+        vanishing = vanishing_disturbances(scenario)
+        record["vanishing"] = "; ".join(vanishing)
+        record["noiseless"] = len(vanishing) == len(scenario.noise.models)
+        tuned_for = (rows["tuned_order"] == order).fillna(False).astype(bool)
+        mine = rows[
+            (rows["task"] == name)
+            & tuned_for
+            & (rows["metric"] == "rmse")
+            & (rows["order"] == order)
+            & (rows["region"] == region)
+        ]
+        if not mine.empty:
+            table = ranking(mine, "rmse", order, region, keys=("method", "params"))
+            best = table.iloc[0]
+            second = table.iloc[1] if len(table) > 1 else None
+            record.update(
+                {
+                    "winner": best["method"],
+                    "rmse": best["mean"],
+                    "ci95": best["ci95"],
+                    "runner_up": None if second is None else second["method"],
+                    "runner_up_rmse": None if second is None else second["mean"],
+                    "t_p": best["vs_next_t_p"],
+                    "detectable_difference_80": best["detectable_difference_80"],
+                    "significant": None if second is None else bool(best["significant_vs_next"]),
                 }
-                if not mine.empty:
-                    table = ranking(mine, "rmse", order, "interior", keys=("method", "params"))
-                    best = table.iloc[0]
-                    second = table.iloc[1] if len(table) > 1 else None
-                    record.update(
-                        {
-                            "winner": best["method"],
-                            "rmse": best["mean"],
-                            "ci95": best["ci95"],
-                            "runner_up": None if second is None else second["method"],
-                            "runner_up_rmse": None if second is None else second["mean"],
-                            "t_p": best["vs_next_t_p"],
-                            "detectable_difference_80": best["detectable_difference_80"],
-                            "significant": None
-                            if second is None
-                            else bool(best["significant_vs_next"]),
-                        }
-                    )
-                records.append(record)
+            )
+        records.append(record)
     return pd.DataFrame(records)
 
 
@@ -120,11 +143,30 @@ def packages_line(rows: pd.DataFrame) -> str:
     return ", ".join(f"{m} ({p})" for m, p in zip(pairs["method"], pairs["package"], strict=True))
 
 
+REGION_COLUMNS = {"interior": "interior", "valid": "whole"}
+
+
+def _winner_text(row) -> str:
+    if row["noiseless"]:
+        return "no noise (200 Hz aliases to 0 Hz)"
+    if pd.isna(row.get("winner")):
+        return "—"
+    star = "*" if row["significant"] else ""
+    note = " †" if row["vanishing"] else ""
+    if pd.isna(row["runner_up"]):
+        return f"{row['winner']} ({row['rmse']:.3g}; the only one ranked){note}"
+    return (
+        f"{row['winner']}{star} ({row['rmse']:.3g}; next "
+        f"{row['runner_up']} {row['runner_up_rmse']:.3g}){note}"
+    )
+
+
 def write_winners(rows: pd.DataFrame, directory: Path) -> list[Path]:
-    """``winners_velocity`` and ``winners_acceleration`` (Markdown grid + full CSV)."""
+    """``winners_velocity`` and ``winners_acceleration`` (Markdown grid + full CSV): per task
+    and step, the winner on the interior and on the whole record side by side."""
     written = []
     for order in (1, 2):
-        table = winners(rows, order)
+        table = pd.concat([winners(rows, order, region) for region in REGION_COLUMNS])
         if "winner" not in table:
             continue
         stem = f"winners_{'velocity' if order == 1 else 'acceleration'}"
@@ -132,31 +174,29 @@ def write_winners(rows: pd.DataFrame, directory: Path) -> list[Path]:
         for (kind, level), group in table.groupby(["noise", "level"], sort=False):
             line = {"noise": kind, "level": f"{level:g}"}
             for step in GRID_STEPS_S:
-                row = group[abs(group["step_ms"] - step * 1e3) < 1e-9].iloc[0]
-                column = f"Ts = {step * 1e3:g} ms"
-                if row["noiseless"]:
-                    line[column] = "no noise (200 Hz aliases to 0 Hz)"
-                elif pd.isna(row.get("winner")):
-                    line[column] = "—"
-                else:
-                    star = "*" if row["significant"] else ""
-                    note = " †" if row["vanishing"] else ""
-                    line[column] = (
-                        f"{row['winner']}{star} ({row['rmse']:.3g}; next "
-                        f"{row['runner_up']} {row['runner_up_rmse']:.3g}){note}"
-                    )
+                for region, label in REGION_COLUMNS.items():
+                    row = group[
+                        (abs(group["step_ms"] - step * 1e3) < 1e-9) & (group["region"] == region)
+                    ].iloc[0]
+                    line[f"Ts = {step * 1e3:g} ms, {label}"] = _winner_text(row)
             shown.append(line)
         title = (
-            f"Winner per grid task for {ORDER_SYMBOLS[order]} (interior RMSE; each method "
-            f"tuned by the oracle on seed {TUNING_SEED}, scored on the others)"
+            f"Winner per grid task for {ORDER_SYMBOLS[order]} (RMSE on the interior and on the "
+            f"whole record; each method tuned by the oracle on the interior on seed "
+            f"{TUNING_SEED}, scored on the others)"
         )
         legend = (
             "`*`: better than the runner-up by the paired t-test (p < 0.05; the CSV gives p and "
             "the smallest difference the test detects 80 % of the time). `†`: the 200 Hz "
             "component of the noise aliases to 0 Hz at this step (its samples are all zero), "
-            "only the other components remain. The signal: sin 2π4t + sin 2π9t + sin 2π15t "
-            "over 0.93 s (not a whole number of periods).\n\nMethods and the packages that "
-            "computed them: " + packages_line(rows) + "."
+            "only the other components remain. The jitter and dropout rows: the time stamps "
+            "moved by up to ±30 % of the step, or 10 % of the samples lost, scored at the "
+            "measured times (methods without their own handling of time stamps resample; "
+            "`diffbench list`); `—`: not run at that step. **whole**: the RMSE over each "
+            "setting's own valid samples, among the settings that estimate at least "
+            f"{tables.WHOLE_COVERAGE:.0%} of the record on every seed. The signal: sin 2π4t + "
+            "sin 2π9t + sin 2π15t over 0.93 s (not a whole number of periods).\n\nMethods and "
+            "the packages that computed them: " + packages_line(rows) + "."
         )
         written += tables.write_report(directory, stem, table, pd.DataFrame(shown), title, legend)
     return written

@@ -397,3 +397,108 @@ def write_figure5(directory: Path, scenario_name: str = "robot-sim", seed: int =
         f"every method at its robot preset, noise seed {seed}", "not used",
     )  # fmt: skip
     return [csv, figures.save_figure(fig, directory / "fig5_robot_derivatives.png", tight=False)]
+
+
+# --- error against position in the record --------------------------------------------------
+END_FRACTION = 0.05
+"""Each end of the record, as a fraction of its samples, in the ends-versus-middle table."""
+
+
+def error_profile_data(seeds: int = 20, names=None) -> pd.DataFrame:
+    """RMS error over noise seeds at each sample of the paper scenario, for ẋ and ẍ of every
+    method named (default: every registered one) at its paper-signal preset.
+
+    At sample :math:`i`, :math:`e_i = \\sqrt{\\frac{1}{S}\\sum_s (\\hat{x}^{(n)}_{s,i} -
+    x^{(n)}_i)^2}` over the :math:`S` seeds (NaN where the method gives no estimate). Columns:
+    ``t_s``, ``position`` (:math:`i/(N-1)`), ``interior`` and, per method,
+    ``<method>_velocity_rms_error`` and ``<method>_acceleration_rms_error``.
+    """
+    scenario = signals.get_scenario(SCENARIO)
+    realisations = [scenario.realise(seed) for seed in range(seeds)]
+    first = realisations[0]
+    n = len(first.t)
+    frame = {"t_s": first.t, "position": np.arange(n) / (n - 1), "interior": first.interior}
+    for name in names or methods.available():
+        method = methods.preset(name, "paper-signal")
+        squares = {1: np.zeros(n), 2: np.zeros(n)}
+        for realisation in realisations:
+            estimate = method(realisation.x, realisation.dt_s)
+            for order in squares:
+                squares[order] += (estimate[order] - realisation.truth[order]) ** 2
+        for order, label in ((1, "velocity"), (2, "acceleration")):
+            frame[f"{name}_{label}_rms_error"] = np.sqrt(squares[order] / seeds)
+    return pd.DataFrame(frame)
+
+
+def ends_table(profile: pd.DataFrame, end_fraction: float = END_FRACTION) -> pd.DataFrame:
+    """Per method and derivative, the RMS error over the first and the last ``end_fraction``
+    of the record and over the middle between them (from :func:`error_profile_data`), the
+    worst end against the middle, and the fraction of the record the method estimates."""
+    n = len(profile)
+    k = max(1, round(end_fraction * n))
+    parts = {"start": slice(0, k), "middle": slice(k, n - k), "end": slice(n - k, n)}
+    records = []
+    for name in _methods_in(profile.columns, "_velocity_rms_error"):
+        for label, symbol in (("velocity", "ẋ"), ("acceleration", "ẍ")):
+            values = profile[f"{name}_{label}_rms_error"].to_numpy()
+            record = {"method": name, "n": symbol}
+            for part, where in parts.items():
+                chunk = values[where]
+                chunk = chunk[np.isfinite(chunk)]
+                record[part] = float(np.sqrt(np.mean(chunk**2))) if len(chunk) else np.nan
+            ends = [v for v in (record["start"], record["end"]) if np.isfinite(v)]
+            record["worst end / middle"] = max(ends) / record["middle"] if ends else np.nan
+            record["coverage"] = float(np.mean(np.isfinite(values)))
+            records.append(record)
+    return pd.DataFrame(records)
+
+
+def write_error_profile(directory: Path, seeds: int = 20) -> list[Path]:
+    """``error_vs_position.csv`` (:func:`error_profile_data`), ``error_vs_position.png`` drawn
+    from it (RMS error of ẋ and ẍ against position, log scale, one line per method) and
+    ``ends.md``/``.csv`` (:func:`ends_table`)."""
+    from diffbench.bench import tables
+
+    csv = directory / "error_vs_position.csv"
+    error_profile_data(seeds).to_csv(csv, index=False)
+    data = pd.read_csv(csv)
+    names = _methods_in(data.columns, "_velocity_rms_error")
+    styles = figures.method_styles(names)
+    plt = figures.pyplot()
+    fig, axes = plt.subplots(2, 1, figsize=(11, 9), sharex=True)
+    t, interior = data["t_s"].to_numpy(), data["interior"].to_numpy(dtype=bool)
+    for axis, (label, symbol, unit) in zip(
+        axes, (("velocity", "ẋ", "units/s"), ("acceleration", "ẍ", "units/s²")), strict=True
+    ):
+        _shade_outside(axis, t, interior)
+        for name in names:
+            axis.plot(t, data[f"{name}_{label}_rms_error"], lw=0.9, label=name,
+                      **styles[name].line())  # fmt: skip
+        axis.set_yscale("log")
+        axis.set_ylabel(f"RMS error of {symbol} ({unit})")
+        axis.grid(True, which="major", alpha=0.3)
+    axes[-1].set_xlabel("time (s)")
+    axes[0].legend(fontsize=7, ncol=4, loc="upper center")
+    fig.suptitle(
+        f"Error against position in the record: RMS over {seeds} noise seeds of the paper "
+        "scenario, each method at its paper-signal preset (grey: outside the common interior; "
+        "a gap: samples the method does not estimate)",
+        fontsize=9,
+    )
+    written = [csv, figures.save_figure(fig, directory / "error_vs_position.png")]
+    table = ends_table(data)
+    shown = table.copy()
+    for column in ("start", "middle", "end", "worst end / middle"):
+        shown[column] = [tables.nan_to_dash(v, 3) for v in table[column]]
+    shown["coverage"] = [f"{v:.3f}" for v in table["coverage"]]
+    written += tables.write_report(
+        directory,
+        "ends",
+        table,
+        shown,
+        f"Ends against the middle: RMS error over the first and last {END_FRACTION:.0%} of the "
+        f"record and over the middle, {seeds} noise seeds, paper-signal presets",
+        "From `error_vs_position.csv`. **coverage**: the fraction of the record the method "
+        "estimates (the RMS errors are over the samples it estimates).",
+    )
+    return written

@@ -124,10 +124,10 @@ class SignalTask(ScenarioTask):
 
     def score(self, method, seed):
         from diffbench.bench.frequency import decompose_error
-        from diffbench.bench.scores import score_estimate
+        from diffbench.bench.scores import estimate_on, score_estimate
 
         realisation = self.scenario.realise(seed)
-        estimate = method(realisation.x, realisation.dt_s)
+        estimate = estimate_on(method, realisation)
         rows = score_estimate(estimate, realisation.truth, realisation.interior)
         if method.linear:
             for order in (1, 2):

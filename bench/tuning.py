@@ -37,6 +37,7 @@ import numpy as np
 from scipy import integrate, optimize
 
 from diffbench import methods
+from diffbench.bench.scores import estimate_on
 
 CRITERIA = ("oracle", "no-truth", "pynumdiff")
 
@@ -287,6 +288,9 @@ def tune(
         if not (isinstance(cutoff_hz, (int, float)) and 0 < cutoff_hz < nyquist):
             raise ValueError(f"`cutoff_hz` must lie strictly inside (0, {nyquist:g}) Hz (the "
                              f"Nyquist frequency), got {cutoff_hz!r}")  # fmt: skip
+    if criterion != "oracle" and not all(r.uniform for r in realisations):
+        raise ValueError(f"the {criterion} criterion needs uniform samples; tune irregularly "
+                         "sampled records with 'oracle'")  # fmt: skip
     if criterion == "no-truth" and not methods.method_class(name).linear:
         raise ValueError(f"the no-truth criterion needs a linear method; use 'pynumdiff' for "
                          f"{name!r}")  # fmt: skip
@@ -314,7 +318,7 @@ def tune(
         """The loss of ``params`` on realisation ``k``."""
         x, inside = samples[k], scored[k]
         try:
-            estimate = cls(**params)(x, dt, orders=(order,))
+            estimate = estimate_on(cls(**params), realisations[k], x, orders=(order,))
         except ValueError:
             return math.inf
         if not estimate.valid[order][inside].all():

@@ -115,3 +115,27 @@ def _from_last_failure(passes: np.ndarray) -> np.ndarray:
     if failing.size:
         trusted[: failing[-1] + 1] = False
     return trusted
+
+
+def trusted_times(
+    method, times: np.ndarray, step: float, orders: tuple[int, ...]
+) -> dict[int, np.ndarray]:
+    """Which of the irregular ``times`` to trust, per order, for a method whose end treatment
+    reaches a fixed span of time: the trusted end samples found by :func:`trusted_samples` on
+    the uniform record of step ``step`` and the same span, as times (the first and last
+    trusted grid times), then every measured time between them."""
+    n_grid = round((times[-1] - times[0]) / step) + 1
+    trusted = trusted_samples(method, n_grid, step, orders)
+    result = {}
+    for order in orders:
+        kept = np.flatnonzero(trusted[order])
+        if not kept.size:
+            raise ValueError(
+                f"`x` spans {times[-1] - times[0]!r} s: too short for {method.name} with "
+                f"{method.params()} to give any estimate of order {order} within its own "
+                "accuracy; use a longer record, or settings with a shorter reach"
+            )
+        start = times[0] + kept[0] * step - 1e-9 * step
+        stop = times[0] + kept[-1] * step + 1e-9 * step
+        result[order] = (times >= start) & (times <= stop)
+    return result

@@ -11,6 +11,8 @@ scipy remains the test oracle where it is accurate.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.polynomial import legendre
 
@@ -142,3 +144,53 @@ def window_samples(window_s: float, degree: int, dt: float) -> int:
             f"(window_s={window_s!r} s at dt={dt!r} s)"
         )
     return samples
+
+
+def local_polynomial_at(
+    x: np.ndarray, times: np.ndarray, window_s: float, degree: int, orders
+) -> dict[int, np.ndarray]:
+    """Savitzky-Golay at irregular times: at each time :math:`t_k`, the least-squares
+    polynomial of ``degree`` through the samples in the window
+    :math:`[t_k - T/2, t_k + T/2]` (``T = window_s``), moved inside :math:`[t_0, t_{n-1}]`
+    where it would stick out (the shifted end fits of the uniform filter), differentiated at
+    :math:`t_k`:
+
+    .. math:: \\hat x^{(n)}_k = \\hat p_k^{(n)}(t_k), \\qquad
+        \\hat p_k = \\arg\\min_{\\deg p \\le d} \\sum_{t_j \\in W_k} (x_j - p(t_j))^2 .
+
+    On uniform times with ``window_s`` an even number of steps the windows hold the same
+    samples as the uniform filter's, so the estimates agree with it. The fit is in the
+    variable :math:`(t - t_k)/T` (conditioning). Returns ``{order: values}``.
+
+    Raises ``ValueError`` naming ``t`` and ``window_s`` when a window holds fewer than
+    ``degree + 1`` samples (a gap longer than the window).
+    """
+    n = times.size
+    span = times[-1] - times[0]
+    slack = 1e-9 * window_s
+    values = {order: np.zeros(x.shape) for order in orders}
+    flat = x.reshape(n, -1)
+    factorials = {order: math.factorial(order) for order in orders}
+    for k, centre in enumerate(times):
+        lo = centre - window_s / 2
+        if window_s >= span:
+            lo = times[0]
+        elif lo < times[0]:
+            lo = times[0]
+        elif lo + window_s > times[-1]:
+            lo = times[-1] - window_s
+        first = int(np.searchsorted(times, lo - slack, side="left"))
+        last = int(np.searchsorted(times, lo + window_s + slack, side="right"))
+        if last - first < degree + 1:
+            raise ValueError(
+                f"`t` has {last - first} samples in the window of `window_s`={window_s!r} s "
+                f"around t={float(centre)!r} s; a polynomial of degree {degree} needs "
+                f"{degree + 1}: use a longer `window_s` or a lower `degree`"
+            )
+        u = (times[first:last] - centre) / window_s
+        vander = np.vander(u, degree + 1, increasing=True)
+        coefficients = np.linalg.lstsq(vander, flat[first:last], rcond=None)[0]
+        for order in orders:
+            row = coefficients[order] if order <= degree else 0.0
+            values[order][k] = np.reshape(row * factorials[order] / window_s**order, x.shape[1:])
+    return values

@@ -21,7 +21,15 @@ import numpy as np
 from diffbench.methods._ends import trusted_samples
 from diffbench.methods._fir import apply_central_fir, fir_response
 from diffbench.methods._plugins import load_automatic_plugins, missing_hint
-from diffbench.methods._validation import check_dt, check_orders, check_signal
+from diffbench.methods._time_stamps import from_grid, to_grid, uniform_grid
+from diffbench.methods._validation import (
+    check_dt,
+    check_orders,
+    check_signal,
+    check_times,
+    is_uniform,
+    mean_step,
+)
 
 _REGISTRY: dict[str, type[Method]] = {}
 
@@ -196,8 +204,61 @@ class Method:
         for spec in params_of(type(self)):
             object.__setattr__(self, spec.name, spec.check(getattr(self, spec.name)))
 
-    def __call__(self, x, dt: float, orders=(0, 1, 2)) -> Estimate:
-        """Estimate the derivatives of ``orders`` of samples ``x`` taken every ``dt`` seconds."""
+    def __call__(self, x, dt: float | None = None, orders=(0, 1, 2), *, t=None) -> Estimate:
+        """Estimate the derivatives of ``orders`` of samples ``x`` taken every ``dt`` seconds,
+        or at the time stamps ``t`` (seconds, one per sample, strictly increasing).
+
+        Give ``dt`` or ``t``. Uniform time stamps (steps within
+        :data:`~diffbench.methods._validation.UNIFORM_TOLERANCE` of their mean) take the
+        uniform path with ``dt`` = their mean step, so they give exactly what ``dt`` gives.
+        Irregular ones are handled natively by a method that defines ``_estimate_at(x, t,
+        orders)`` (``time_stamps == "native"``), otherwise by resampling
+        (:mod:`diffbench.methods._time_stamps`; ``time_stamps == "resampled"``) onto the grid
+        of step ``dt`` when it is given with ``t`` (the nominal step: e.g. 1 ms for a 1 kHz
+        logger with jitter or lost samples), else of the step nearest the median step.
+        """
+        if t is None:
+            if dt is None:
+                raise ValueError(
+                    "give the sampling step `dt` (uniform samples) or the time stamps `t` "
+                    "(one per sample)"
+                )
+            return self._uniform(x, dt, orders)
+        nominal = None if dt is None else check_dt(dt)
+        x, _ = check_signal(x, 1.0, min_samples=2)
+        times = check_times(t, x.shape[0])
+        step = mean_step(times)
+        if is_uniform(times):
+            return self._uniform(x, step, orders)
+        orders = check_orders(orders)
+        if self.time_stamps == "native":
+            values, valid = self._estimate_at(x, times, orders)
+            return Estimate(values=values, valid=valid)
+        grid, grid_step = uniform_grid(times, nominal)
+        try:
+            on_grid = self._uniform(to_grid(x, times, grid), grid_step, orders)
+        except ValueError as error:
+            raise ValueError(
+                f"{error} (on the uniform grid of step {grid_step!r} s, "
+                f"{'nearest `dt`' if nominal else 'nearest the median step of `t`'}: "
+                f"{self.name} takes irregular time stamps by resampling them; give `dt`, "
+                "the nominal step, with `t`)"
+            ) from None
+        values, valid = {}, {}
+        for order in orders:
+            values[order], valid[order] = from_grid(
+                on_grid.values[order], on_grid.valid[order], grid, times
+            )
+        return Estimate(values=values, valid=valid)
+
+    time_stamps: ClassVar[str] = "resampled"
+    """How irregular time stamps are handled: ``"native"`` (the method's own
+    ``_estimate_at``) or ``"resampled"`` (:mod:`diffbench.methods._time_stamps`)."""
+
+    def _estimate_at(self, x: np.ndarray, times: np.ndarray, orders) -> tuple[dict, dict]:
+        raise NotImplementedError(f"{self.name} has no estimate at irregular times")
+
+    def _uniform(self, x, dt: float, orders) -> Estimate:
         orders = check_orders(orders)
         dt = check_dt(dt)
         # the signal's length first: it is cheap, and check_step may build taps

@@ -142,15 +142,27 @@ def samples_in_span(name: str, span_s: float, dt: float, *, odd: bool = False) -
     return intervals
 
 
-def uniform_step(t) -> float:
-    """Return the sampling step of a uniform, increasing time vector ``t``.
+UNIFORM_TOLERANCE = 1e-6
+"""Time stamps whose steps all lie within this fraction of their mean step are uniform."""
 
-    Raises ``ValueError`` if ``t`` is not 1-D, has fewer than 2 samples, holds NaN/inf, is not
-    strictly increasing, or its steps differ by more than 1e-6 relative (resample it first).
+
+def check_times(t, n: int | None = None) -> np.ndarray:
+    """Return time stamps ``t`` as a float64 array, checked: 1-D, at least 2 of them (``n`` if
+    given: one per sample of the signal), finite and strictly increasing.
+
+    Raises ``ValueError`` naming ``t`` and the fix otherwise.
     """
-    times = np.asarray(t, dtype=np.float64)
+    try:
+        times = np.asarray(t, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"`t` must be an array of real times, got {type(t).__name__}") from None
     if times.ndim != 1 or times.size < 2:
         raise ValueError(f"`t` must be a 1-D array of at least 2 times, got shape {times.shape}")
+    if n is not None and times.size != n:
+        raise ValueError(
+            f"`t` has {times.size} time stamps but `x` has {n} samples on axis 0; give one "
+            "time stamp per sample"
+        )
     if not np.all(np.isfinite(times)):
         raise ValueError("`t` holds NaN or inf values")
     steps = np.diff(times)
@@ -160,11 +172,34 @@ def uniform_step(t) -> float:
             f"`t` must be strictly increasing; t[{first + 1}]={float(times[first + 1])!r} <= "
             f"t[{first}]={float(times[first])!r} (sort it and drop duplicates)"
         )
-    dt = (times[-1] - times[0]) / (times.size - 1)
-    spread = float(np.max(np.abs(steps - dt)))
-    if spread > 1e-6 * dt:
+    return times
+
+
+def mean_step(times: np.ndarray) -> float:
+    """The mean step :math:`(t_{n-1} - t_0)/(n - 1)` of checked time stamps."""
+    return float((times[-1] - times[0]) / (times.size - 1))
+
+
+def is_uniform(times: np.ndarray) -> bool:
+    """True when every step of checked ``times`` is within :data:`UNIFORM_TOLERANCE` of the
+    mean step."""
+    step = mean_step(times)
+    return float(np.max(np.abs(np.diff(times) - step))) <= UNIFORM_TOLERANCE * step
+
+
+def uniform_step(t) -> float:
+    """Return the sampling step of a uniform, increasing time vector ``t``.
+
+    Raises ``ValueError`` if ``t`` is not 1-D, has fewer than 2 samples, holds NaN/inf, is not
+    strictly increasing, or its steps differ by more than 1e-6 relative (pass ``t=`` to a
+    method instead: it takes irregular time stamps).
+    """
+    times = check_times(t)
+    dt = mean_step(times)
+    spread = float(np.max(np.abs(np.diff(times) - dt)))
+    if spread > UNIFORM_TOLERANCE * dt:
         raise ValueError(
             f"`t` is not uniformly sampled (steps differ from the mean {dt!r} s by up to "
-            f"{spread:.3g} s); resample to a uniform grid first"
+            f"{spread:.3g} s); give the time stamps to the method as `t=` instead of `dt`"
         )
     return float(dt)

@@ -6,8 +6,48 @@ from math import factorial, inf
 
 import numpy as np
 
+from diffbench.methods._ends import trusted_samples
 from diffbench.methods._local_poly import apply_fir_with_ends, end_evaluators
 from diffbench.methods._registry import FirMethod, Preset, param, register
+from diffbench.methods._validation import mean_step
+
+
+def fornberg_weights(nodes: np.ndarray, at: float, max_order: int) -> np.ndarray:
+    """Finite-difference weights on arbitrary ``nodes`` for the derivatives of orders
+    0..``max_order`` at ``at``: row n holds :math:`w_{n,j}` with
+    :math:`f^{(n)}(a) \\approx \\sum_j w_{n,j} f(t_j)`, exact for polynomials of degree below
+    the number of nodes (the derivatives at ``at`` of the interpolating polynomial).
+
+    Fornberg's recursion over the nodes taken one at a time (no linear system; stable for
+    the stencils used here). On uniform nodes :math:`t_j = a + j h` the weights are the
+    central ones, :func:`central_difference_weights` :math:`/ h^n`.
+
+    References: B. Fornberg, "Generation of finite difference formulas on arbitrarily spaced
+    grids", Math. Comp. 51 (1988) 699-706.
+    """
+    nodes = np.asarray(nodes, dtype=np.float64)
+    weights = np.zeros((max_order + 1, nodes.size))
+    weights[0, 0] = 1.0
+    previous_product, offset = 1.0, nodes[0] - at
+    for i in range(1, nodes.size):
+        top = min(i, max_order)
+        product, previous_offset, offset = 1.0, offset, nodes[i] - at
+        for j in range(i):
+            gap = nodes[i] - nodes[j]
+            product *= gap
+            if j == i - 1:
+                for k in range(top, 0, -1):
+                    weights[k, i] = (
+                        previous_product
+                        * (k * weights[k - 1, i - 1] - previous_offset * weights[k, i - 1])
+                        / product
+                    )
+                weights[0, i] = -previous_product * previous_offset * weights[0, i - 1] / product
+            for k in range(top, 0, -1):
+                weights[k, j] = (offset * weights[k, j] - k * weights[k - 1, j]) / gap
+            weights[0, j] = offset * weights[0, j] / gap
+        previous_product = product
+    return weights
 
 
 def central_difference_weights(order: int, accuracy: int) -> np.ndarray:
@@ -54,6 +94,12 @@ class FiniteDifference(FirMethod):
     masked. Exact on polynomials of degree ``p + n - 1`` everywhere (the symmetric stencil
     gains one degree for ``n = 2``: not the ends).
 
+    Time stamps (``t=``) are handled natively: the same stencils of samples, with the weights
+    of :func:`fornberg_weights` at the sample's own time, and the same one-sided least-squares
+    polynomials in t at the ends; the ends are masked where the uniform record of the mean step
+    masks them. Uneven spacing loses the symmetric stencil's extra degree: exact on degree
+    ``p`` for ``n = 2`` (``p + 1`` on uniform times), ``p + n - 1`` otherwise.
+
     Parameters
     ----------
     accuracy_order : {2, 4, 6}
@@ -84,6 +130,7 @@ class FiniteDifference(FirMethod):
         ),
     }
     reference = "Fornberg (1988)"
+    time_stamps = "native"
 
     def _half_width(self, order: int) -> int:
         return (order + 1) // 2 + self.accuracy_order // 2 - 1
@@ -117,3 +164,38 @@ class FiniteDifference(FirMethod):
         if order == 0:
             return np.ones(1)
         return central_difference_weights(order, self.accuracy_order) / dt**order
+
+    def _estimate_at(self, x, times, orders):
+        n = times.size
+        if n < self.min_samples(1.0):
+            raise ValueError(
+                f"`x` has {n} samples on axis 0; at least {self.min_samples(1.0)} are needed"
+            )
+        flat = x.reshape(n, -1)
+        trusted = trusted_samples(self, n, mean_step(times), orders)
+        values, valid = {}, {}
+        for order in orders:
+            if order == 0:
+                values[0], valid[0] = x.copy(), np.ones(n, dtype=bool)
+                continue
+            m, m_end = self._half_width(order), self._end_half_width(order)
+            degree = self.accuracy_order + order - 1
+            out = np.empty_like(flat)
+            for k in range(n):
+                if m <= k < n - m:
+                    stencil = slice(k - m, k + m + 1)
+                    out[k] = (
+                        fornberg_weights(times[stencil], times[k], order)[order] @ flat[stencil]
+                    )
+                    continue
+                stencil = slice(0, 2 * m_end + 1) if k < m else slice(n - 2 * m_end - 1, n)
+                span = times[stencil][-1] - times[stencil][0]
+                u = (times[stencil] - times[k]) / span
+                coefficients = np.linalg.lstsq(
+                    np.vander(u, degree + 1, increasing=True), flat[stencil], rcond=None
+                )[0]
+                out[k] = coefficients[order] * factorial(order) / span**order
+            keep = trusted[order]
+            out[~keep] = np.nan
+            values[order], valid[order] = out.reshape(x.shape), keep
+        return values, valid

@@ -79,18 +79,21 @@ of ẋ over the record is 1.38 at 10 (the scale used until 2026-11), 0.37 at 1e3
 0.06 at 1e9; the start then follows the data instead of the prior's guess."""
 
 
-def initial_state(z: np.ndarray, states: int) -> tuple[np.ndarray, np.ndarray]:
+def initial_state(
+    z: np.ndarray, states: int, steps: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     r"""Prior mean and covariance of the scaled state one step before the first sample: vague.
 
     A least-squares polynomial :math:`p(u) = \sum_j c_j u^j` (u in steps) of degree m-1
     through the first min(n, 4m) samples, sample j at u = j + 1: the scaled state at u = 0 is
     the coefficients c themselves; covariance ``PRIOR_SCALE`` R (VᵀV)⁻¹, so that the data, not
     the guess, decide the first estimates. A polynomial of the model's degree starts the filter
-    on its exact state, so the smoother reproduces it exactly. ``z`` has shape (n, channels);
+    on its exact state, so the smoother reproduces it exactly. ``steps``: the samples' times in
+    steps from the prior (irregular times; default 1, 2, ...). ``z`` has shape (n, channels);
     the mean has shape (m, channels). The covariance does not depend on the data.
     """
     count = min(z.shape[0], 4 * states)
-    steps = np.arange(1, count + 1, dtype=float)
+    steps = np.arange(1, count + 1, dtype=float) if steps is None else steps[:count]
     vandermonde = steps[:, None] ** np.arange(states)[None, :]
     coefficients, *_ = np.linalg.lstsq(vandermonde, z[:count], rcond=None)
     return coefficients, PRIOR_SCALE * np.linalg.inv(vandermonde.T @ vandermonde)
@@ -287,6 +290,35 @@ def _end_reach(model_order: int, dt: float, bandwidth_hz: float) -> int:
     return transient + int(np.ceil(np.log(SETTLING) / np.log(radius)))
 
 
+def irregular_models(
+    model_order: int, times: np.ndarray, bandwidth_hz: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""Per-step transitions and process noises of :func:`polynomial_model` at irregular
+    ``times``, in the states scaled by the mean step h (:math:`s_j = x^{(j)} h^j / j!`): for
+    the step :math:`\Delta_k = t_k - t_{k-1}` (:math:`\Delta_0 = h`, from the prior),
+    :math:`F_k = T F(\Delta_k) T^{-1}` and :math:`Q_k = T Q(\Delta_k) T`, T = diag(h^j/j!),
+    with Q from filterpy's ``Q_continuous_white_noise`` at the spectral density of the
+    uniform model of step h. Returns (Fs, Qs, to_derivatives)."""
+    from filterpy.common import Q_continuous_white_noise
+
+    states = model_order + 1
+    step = float((times[-1] - times[0]) / (times.size - 1))
+    density = (2 * math.pi * bandwidth_hz) ** (2 * states) * step
+    to_derivatives = np.array([math.factorial(j) / step**j for j in range(states)])
+    gaps = np.r_[step, np.diff(times)]
+    Fs = np.empty((times.size, states, states))
+    Qs = np.empty_like(Fs)
+    for k, gap in enumerate(gaps):
+        raw = np.array(
+            [[gap ** (j - i) / math.factorial(j - i) if j >= i else 0.0 for j in range(states)]
+             for i in range(states)]
+        )  # fmt: skip
+        Fs[k] = raw * to_derivatives[None, :] / to_derivatives[:, None]
+        noise = np.asarray(Q_continuous_white_noise(dim=states, dt=gap, spectral_density=density))
+        Qs[k] = noise / np.outer(to_derivatives, to_derivatives)
+    return Fs, Qs, to_derivatives
+
+
 @functools.lru_cache(maxsize=64)
 def _cached_model(model_order: int, dt: float, bandwidth_hz: float) -> KalmanModel:
     return polynomial_model(model_order, dt, bandwidth_hz)
@@ -307,6 +339,11 @@ class KalmanSmoother(Method):
     response is within twice the interior's error over the band the interior claims
     (:mod:`methods._ends`; the others are masked). Exact on polynomials of degree
     ``model_order`` (the model's own signals).
+
+    Time stamps (``t=``) are native: the same model with each step's own transition and
+    process noise (:func:`irregular_models`), run by filterpy's ``batch_filter`` +
+    ``rts_smoother`` themselves (per channel), q set by the mean step; the ends are trusted
+    over the same spans of time as on the uniform record of the mean step.
 
     Parameters
     ----------
@@ -343,6 +380,7 @@ class KalmanSmoother(Method):
         ),
     }
     reference = "Rauch, Tung, Striebel (1965); filterpy"
+    time_stamps = "native"
     time_symmetric = False  # the prior and the transients differ at the two ends
 
     def check_step(self, dt: float) -> None:
@@ -398,3 +436,37 @@ class KalmanSmoother(Method):
             for order in orders
         }
         return values, {order: valid.copy() for order in orders}
+
+    def _estimate_at(self, x, times, orders):
+        from filterpy.kalman import KalmanFilter
+
+        from diffbench.methods._ends import trusted_times
+
+        n = times.size
+        if n < self.min_samples(1.0):
+            raise ValueError(
+                f"`x` has {n} samples on axis 0; at least {self.min_samples(1.0)} are needed"
+            )
+        step = float((times[-1] - times[0]) / (n - 1))
+        self.check_step(step)
+        flat = x.reshape(n, -1)
+        Fs, Qs, to_derivatives = irregular_models(self.model_order, times, self.bandwidth_hz)
+        states = self.model_order + 1
+        mean0, covariance0 = initial_state(flat, states, (times - times[0]) / step + 1.0)
+        smoothed = np.empty((n, states, flat.shape[1]))
+        for channel in range(flat.shape[1]):
+            kf = KalmanFilter(dim_x=states, dim_z=1)
+            kf.x = mean0[:, channel].copy()
+            kf.P = covariance0.copy()
+            kf.H = np.eye(1, states)
+            kf.R = np.eye(1)
+            means, covariances, _, _ = kf.batch_filter(flat[:, channel], Fs=Fs, Qs=Qs)
+            smoothed[:, :, channel] = kf.rts_smoother(means, covariances, Fs=Fs, Qs=Qs)[0]
+        trusted = trusted_times(self, times, step, orders)
+        values, valid = {}, {}
+        shape = (-1,) + (1,) * (x.ndim - 1)
+        for order in orders:
+            estimate = (smoothed[:, order, :] * to_derivatives[order]).reshape(x.shape)
+            values[order] = np.where(trusted[order].reshape(shape), estimate, np.nan)
+            valid[order] = trusted[order]
+        return values, valid

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from diffbench.methods._ends import trusted_times
 from diffbench.methods._local_poly import (
+    local_polynomial_at,
     local_polynomial_weights,
     savitzky_golay_filter,
     window_samples,
@@ -30,6 +32,11 @@ class SavitzkyGolay(FirMethod):
     estimated; an end sample stays valid only where its response is within twice the
     interior's error over the band the interior claims (:mod:`methods._ends`; the others are
     masked). Exact on polynomials of degree <= ``degree``, ends included.
+
+    Time stamps (``t=``) are handled natively: the same fit on the samples within
+    ``window_s`` in time around each one (:func:`methods._local_poly.local_polynomial_at`),
+    the ends trusted over the same spans of time as on the uniform grid whose step is nearest
+    the mean step with ``window_s`` an even number of steps.
 
     Parameters
     ----------
@@ -72,6 +79,7 @@ class SavitzkyGolay(FirMethod):
         ),
     }
     reference = "Savitzky & Golay (1964)"
+    time_stamps = "native"
 
     def _samples(self, dt: float) -> int:
         return window_samples(self.window_s, self.degree, dt)
@@ -102,3 +110,20 @@ class SavitzkyGolay(FirMethod):
             order: savitzky_golay_filter(x, half_width, self.degree, order, dt) for order in orders
         }
         return values, {order: valid.copy() for order in orders}
+
+    def _estimate_at(self, x, times, orders):
+        span = times[-1] - times[0]
+        mean = span / (times.size - 1)
+        steps = max(2, 2 * round(self.window_s / (2 * mean)))
+        grid_step = self.window_s / steps
+        if span < self.window_s:
+            raise ValueError(
+                f"`t` spans {span!r} s, shorter than `window_s`={self.window_s!r} s; use a "
+                "shorter window or a longer record"
+            )
+        values = local_polynomial_at(x, times, self.window_s, self.degree, orders)
+        valid = trusted_times(self, times, grid_step, orders)
+        shape = (-1,) + (1,) * (x.ndim - 1)
+        for order in orders:
+            values[order] = np.where(valid[order].reshape(shape), values[order], np.nan)
+        return values, valid

@@ -6,7 +6,7 @@ import numpy as np
 from scipy.interpolate import make_smoothing_spline
 
 from diffbench.methods._registry import Method, Preset, param, register
-from diffbench.methods._validation import check_frequency
+from diffbench.methods._validation import check_frequency, mean_step
 
 MIN_CUTOFF_FRACTION = 1e-3
 """Lowest ``cutoff_hz`` as a fraction of the Nyquist frequency: λ grows as the cutoff to the
@@ -54,7 +54,8 @@ class SmoothingSpline(Method):
     (:func:`smoothing_spline_response`) is one half near ``cutoff_hz`` and falls as
     :math:`f^{-4}`. Every sample is estimated (natural spline ends: g'' = 0 beyond the record).
     Linear in the input; exact on straight lines everywhere (they cost no penalty: the
-    least-squares line is taken out before the fit and added back exactly).
+    least-squares line is taken out before the fit and added back exactly). Time stamps
+    (``t=``) are native: the same fit at the measured times, λ set by the mean step.
 
     Parameters
     ----------
@@ -90,6 +91,7 @@ class SmoothingSpline(Method):
         ),
     }
     reference = "Reinsch (1967)"
+    time_stamps = "native"
 
     def check_step(self, dt: float) -> None:
         check_frequency(
@@ -109,16 +111,26 @@ class SmoothingSpline(Method):
         return smoothing_spline_response(frequency_hz, dt, self.cutoff_hz, order)
 
     def _estimate(self, x, dt, orders):
+        return self._fit(x, np.arange(x.shape[0]) * dt, smoothing_parameter(self.cutoff_hz, dt),
+                         orders)  # fmt: skip
+
+    def _estimate_at(self, x, times, orders):
+        if times.size < self.min_samples(1.0):
+            raise ValueError(f"`x` has {times.size} samples on axis 0; at least 5 are needed")
+        step = mean_step(times)
+        self.check_step(step)
+        return self._fit(x, times, smoothing_parameter(self.cutoff_hz, step), orders)
+
+    @staticmethod
+    def _fit(x, t, lam, orders):
         # The least-squares line costs no penalty, so taking it out first leaves the spline
         # unchanged in exact arithmetic, and keeps the solver's rounding (1e-11 relative) off
         # the constants and lines it must reproduce.
         n = x.shape[0]
-        t = np.arange(n) * dt
         centred = (t - t.mean()).reshape((n,) + (1,) * (x.ndim - 1))
         mean = x.mean(axis=0)
         slope = (centred * (x - mean)).sum(axis=0) / (centred**2).sum()
         line = mean + slope * centred
-        lam = smoothing_parameter(self.cutoff_hz, dt)
         spline = make_smoothing_spline(t, x - line, lam=lam, axis=0)
         values = {}
         for order in orders:

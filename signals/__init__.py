@@ -35,11 +35,14 @@ from diffbench.signals.scenarios import (
     get_scenario,
     register_scenario,
 )
+from diffbench.signals.timing import Dropout, Jitter, SamplingModel
 
 __all__ = [
     "Chirp",
     "DampedOscillation",
+    "Dropout",
     "Gaussian",
+    "Jitter",
     "NoiseModel",
     "NoiseStack",
     "PaperSines",
@@ -47,6 +50,7 @@ __all__ = [
     "Polynomial",
     "Quantisation",
     "Realisation",
+    "SamplingModel",
     "Scenario",
     "Signal",
     "Sinusoid",

@@ -20,6 +20,7 @@ import numpy as np
 from diffbench.signals._checks import check_real, check_seed, check_times, read_only
 from diffbench.signals.clean import Chirp, DampedOscillation, PaperSines, Polynomial, Signal, Truth
 from diffbench.signals.noise import Gaussian, NoiseStack, Poisson, Quantisation, Sinusoid
+from diffbench.signals.timing import Dropout, Jitter, SamplingModel
 
 _STEPS_RTOL = 1e-9
 """Relative tolerance on ``duration_s / dt_s`` being a whole number of steps."""
@@ -34,9 +35,10 @@ class Realisation:
     Parameters
     ----------
     t : numpy.ndarray, shape (n,)
-        Sample times in seconds, ``dt_s * arange(n)``.
+        Sample times in seconds: ``dt_s * arange(n)``, or the measured time stamps of a
+        scenario with irregular sampling (``uniform`` is then false).
     dt_s : float
-        Sampling step in seconds.
+        Sampling step in seconds (the nominal one when the sampling is irregular).
     x : numpy.ndarray, shape (n,)
         Noisy samples, ``truth[0] + noise``.
     truth : Truth
@@ -83,6 +85,12 @@ class Realisation:
         object.__setattr__(self, "seed", check_seed(self.seed))
         object.__setattr__(self, "interior", interior)
 
+    @property
+    def uniform(self) -> bool:
+        """True when the samples lie on the grid ``t[0] + dt_s * arange(n)`` (to 1e-9 dt)."""
+        grid = self.t[0] + self.dt_s * np.arange(self.t.shape[0])
+        return bool(np.max(np.abs(self.t - grid)) <= 1e-9 * self.dt_s)
+
 
 @dataclass(frozen=True, kw_only=True)
 class Scenario:
@@ -112,6 +120,10 @@ class Scenario:
     preset : str
         Key of the method presets to use on this scenario (``"paper-signal"`` or
         ``"default"``); non-empty.
+    sampling : tuple of SamplingModel
+        Irregular sampling (:mod:`diffbench.signals.timing`: jitter, dropouts) applied to the
+        grid in order, from the generator ``default_rng([1, seed])`` (apart from the noise's,
+        so a scenario without it draws exactly the noise it always drew); empty: the grid.
 
     Examples
     --------
@@ -128,8 +140,12 @@ class Scenario:
     interior_margin_s: float
     description: str
     preset: str
+    sampling: tuple[SamplingModel, ...] = ()
 
     def __post_init__(self) -> None:
+        if not all(isinstance(model, SamplingModel) for model in self.sampling):
+            raise ValueError(f"`sampling` must be a tuple of SamplingModel, got {self.sampling!r}")
+        object.__setattr__(self, "sampling", tuple(self.sampling))
         for label in ("name", "description", "preset"):
             value = getattr(self, label)
             if not isinstance(value, str) or not value:
@@ -191,6 +207,10 @@ class Scenario:
         """
         seed = check_seed(seed)
         t = self.t
+        if self.sampling:
+            rng = np.random.default_rng([1, seed])
+            for model in self.sampling:
+                t = model.times(t, self.dt_s, rng)
         truth = self.signal.evaluate(t)
         noisy, noise = self.noise.apply(t, truth[0], np.random.default_rng(seed))
         return Realisation(
@@ -367,10 +387,25 @@ def grid_scenario_name(kind: str, level: float, step_s: float) -> str:
     return f"grid-{kind}-{level:g}-{step_s * 1e3:g}ms"
 
 
+GRID_SAMPLINGS = {"jitter": Jitter(fraction=0.3), "dropout": Dropout(fraction=0.1)}
+"""Irregular sampling in the grid: the stamps jittered by ±30 % of the step, or 10 % of the
+samples dropped; with Gaussian noise of level :data:`GRID_SAMPLING_LEVEL` at the steps of
+:data:`GRID_SAMPLING_STEPS_S`."""
+GRID_SAMPLING_LEVEL = 0.2
+GRID_SAMPLING_STEPS_S = (1e-3, 1e-2)
+
+
+def grid_sampling_name(sampling: str, step_s: float) -> str:
+    """The name of an irregular-sampling grid scenario, e.g. ``grid-gaussian-0.2-1ms-jitter``."""
+    return f"{grid_scenario_name('gaussian', GRID_SAMPLING_LEVEL, step_s)}-{sampling}"
+
+
 def grid_scenario_names() -> list[str]:
-    """Every scenario of the grid (noise type x level x step)."""
+    """Every scenario of the grid (noise type x level x step, then the irregular sampling)."""
     return [grid_scenario_name(kind, level, step) for kind in GRID_NOISE_TYPES
-            for level in GRID_NOISE_LEVELS for step in GRID_STEPS_S]  # fmt: skip
+            for level in GRID_NOISE_LEVELS for step in GRID_STEPS_S] + [
+        grid_sampling_name(sampling, step) for sampling in GRID_SAMPLINGS
+        for step in GRID_SAMPLING_STEPS_S]  # fmt: skip
 
 
 def vanishing_disturbances(scenario: Scenario) -> list[str]:
@@ -402,3 +437,23 @@ for _kind in GRID_NOISE_TYPES:
                     preset="default",
                 )
             )
+
+for _sampling, _model in GRID_SAMPLINGS.items():
+    for _step in GRID_SAMPLING_STEPS_S:
+        register_scenario(
+            Scenario(
+                name=grid_sampling_name(_sampling, _step),
+                signal=PaperSines(frequencies_hz=(4.0, 9.0, 15.0), amplitude=1.0),
+                noise=_grid_noise("gaussian", GRID_SAMPLING_LEVEL),
+                dt_s=_step,
+                duration_s=0.93,
+                interior_margin_s=0.15,
+                description=(
+                    f"The paper's 4/9/15 Hz signal with gaussian noise of amplitude "
+                    f"{GRID_SAMPLING_LEVEL:g}, sampled every {_step * 1e3:g} ms for 0.93 s with "
+                    f"{_model.describe()}: scored at the measured times."
+                ),
+                preset="default",
+                sampling=(_model,),
+            )
+        )

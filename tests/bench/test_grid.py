@@ -12,8 +12,13 @@ from diffbench.signals.scenarios import GRID_NOISE_LEVELS, GRID_NOISE_TYPES, GRI
 
 
 def test_grid_has_every_noise_type_level_and_step():
+    from diffbench.signals.scenarios import GRID_SAMPLING_STEPS_S, GRID_SAMPLINGS
+
     names = [n for n in signals.available_scenarios() if n.startswith("grid-")]
-    assert len(names) == len(GRID_NOISE_TYPES) * len(GRID_NOISE_LEVELS) * len(GRID_STEPS_S)
+    assert len(names) == len(GRID_NOISE_TYPES) * len(GRID_NOISE_LEVELS) * len(GRID_STEPS_S) + len(
+        GRID_SAMPLINGS
+    ) * len(GRID_SAMPLING_STEPS_S)
+    assert sorted(names) == sorted(grid.task_names())
     scenario = signals.get_scenario("grid-combined-0.5-0.1ms")
     assert scenario.n_samples == 9301 and scenario.dt_s == 1e-4
     realisation = scenario.realise(1)
@@ -37,12 +42,12 @@ def test_tuning_job_returns_full_valid_parameters_on_a_coarse_step():
         assert abs(steps - round(steps)) < 1e-9 and round(steps) % 2 == 0
 
 
-def _rows(name, entries, order=2, seeds=8):
+def _rows(name, entries, order=2, seeds=8, region="interior"):
     rows = []
     base = np.random.default_rng(0).normal(10, 2, size=seeds)
     for method, shift in entries:
         rows += [{"task": name, "method": method, "params": "{}", "tuned_order": order,
-                  "metric": "rmse", "order": order, "region": "interior", "seed": seed,
+                  "metric": "rmse", "order": order, "region": region, "seed": seed,
                   "value": value + shift} for seed, value in enumerate(base)]  # fmt: skip
     frame = pd.DataFrame(rows)
     frame["tuned_order"] = frame["tuned_order"].astype("Int64")
@@ -55,6 +60,43 @@ def test_winners_names_the_best_method_and_tests_significance():
                 & (table["step_ms"] == 1.0)].iloc[0]  # fmt: skip
     assert row["winner"] == "a" and row["runner_up"] == "b" and bool(row["significant"])
     assert row["detectable_difference_80"] == 0.0  # the same difference on every seed
+
+
+def _coverage(rows, coverages, order=2):
+    """Coverage rows of ``rows``'s entries: ``{method: coverage on every seed}``."""
+    seeds = sorted(set(rows["seed"]))
+    extra = [{"task": rows["task"].iloc[0], "method": method, "params": "{}", "tuned_order": order,
+              "metric": "coverage", "order": order, "region": "valid", "seed": seed,
+              "value": value} for method, value in coverages.items() for seed in seeds]  # fmt: skip
+    frame = pd.concat([rows, pd.DataFrame(extra)], ignore_index=True)
+    frame["tuned_order"] = frame["tuned_order"].astype("Int64")
+    return frame
+
+
+def test_whole_record_winner_leaves_out_entries_that_mask_their_ends(tmp_path):
+    """'a' wins the interior and has the least RMSE over its own valid samples, but estimates
+    only 90 % of the record: on the whole record 'b' (every sample) wins."""
+    name = "grid-gaussian-0.2-1ms"
+    interior = _rows(name, (("a", 0.0), ("b", 1.0)))
+    whole = _rows(name, (("a", 0.5), ("b", 3.0)), region="valid")
+    rows = _coverage(pd.concat([interior, whole], ignore_index=True), {"a": 0.9, "b": 1.0})
+    pick = {"noise": "gaussian", "level": 0.2, "step_ms": 1.0}
+
+    def row(table):
+        return table[(table[list(pick)] == pd.Series(pick)).all(axis=1)].iloc[0]
+
+    assert row(grid.winners(rows, 2, "interior"))["winner"] == "a"
+    best = row(grid.winners(rows, 2, "valid"))
+    assert best["winner"] == "b" and pd.isna(best["runner_up"])
+    assert best["rmse"] == pytest.approx(whole[whole["method"] == "b"]["value"].mean())
+    with pytest.raises(ValueError, match="`region`"):
+        grid.winners(rows, 2, "ends")
+    grid.write_winners(rows, tmp_path)
+    text = (tmp_path / "winners_acceleration.md").read_text()
+    assert "Ts = 1 ms, interior" in text and "Ts = 1 ms, whole" in text
+    lines = [[c.strip() for c in li.strip("|").split("|")] for li in text.splitlines()]
+    cells = next(c for c in lines if c[:2] == ["gaussian", "0.2"])
+    assert cells[4].startswith("a*") and cells[5].startswith("b (")  # 1 ms: interior, whole
 
 
 def test_aliased_disturbance_is_labelled_not_ranked(tmp_path):
@@ -72,3 +114,19 @@ def test_aliased_disturbance_is_labelled_not_ranked(tmp_path):
     assert "no noise (200 Hz aliases to 0 Hz)" in text
     assert re.search(r"\| a\* \([\d.]+; next b [\d.]+\) † +\|", text)  # ranked, marked
     assert len(written) == 2  # no rows tuned for ẋ: no velocity table
+
+
+def test_irregular_sampling_rows_are_ranked_where_run_and_dashed_elsewhere(tmp_path):
+    from diffbench.signals.scenarios import grid_sampling_name
+
+    name = grid_sampling_name("jitter", 1e-3)
+    rows = _rows(name, (("a", 0.0), ("b", 1.0)))
+    table = grid.winners(rows, 2)
+    jitter = table[table["noise"].str.contains("jitter")].set_index("step_ms")
+    assert jitter.loc[1.0, "winner"] == "a" and jitter.loc[1.0, "task"] == name
+    assert pd.isna(jitter.loc[0.1, "task"]) and pd.isna(jitter.loc[0.1, "winner"])
+    grid.write_winners(rows, tmp_path)
+    text = (tmp_path / "winners_acceleration.md").read_text()
+    line = next(li for li in text.splitlines() if "jitter ±30% of the step" in li)
+    cells = [c.strip() for c in line.strip("|").split("|")]
+    assert cells[2] == "—" and cells[4].startswith("a*")  # 0.1 ms: not run; 1 ms: ranked

@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from diffbench import methods
+from diffbench import methods, signals
 from diffbench.bench import paper
 
 
@@ -114,9 +114,41 @@ def test_figure5_has_every_method_with_a_robot_preset():
 def test_paper_figures_command_writes_everything(tmp_path, capsys):
     from diffbench.bench.cli import main  # imported here: the CLI is rewritten separately
 
-    assert main(["paper-figures", "--out", str(tmp_path)]) == 0
-    for name in ("fig1_errors", "fig2_bode", "fig3_parameters"):
+    assert main(["paper-figures", "--seeds", "2", "--out", str(tmp_path)]) == 0
+    for name in ("fig1_errors", "fig2_bode", "fig3_parameters", "error_vs_position"):
         assert (tmp_path / "paper-figures" / f"{name}.png").stat().st_size > 10_000
         assert (tmp_path / "paper-figures" / f"{name}.csv").exists()
     frequency = (tmp_path / "paper-figures" / "frequency.md").read_text()
     assert re.search(r"\| jacobi +\| 2 +\|", frequency)
+
+
+def test_error_profile_is_the_rms_over_seeds_at_each_sample():
+    seeds = 3
+    profile = paper.error_profile_data(seeds, names=["jacobi", "spectral"])
+    scenario = signals.get_scenario(paper.SCENARIO)
+    method = methods.preset("jacobi", "paper-signal")
+    squares = 0.0
+    for seed in range(seeds):
+        realisation = scenario.realise(seed)
+        squares = squares + (method(realisation.x, realisation.dt_s)[1] - realisation.truth[1]) ** 2
+    np.testing.assert_allclose(profile["jacobi_velocity_rms_error"], np.sqrt(squares / seeds))
+    # Jacobi masks the ends it does not trust: gaps at both ends, none inside
+    values = profile["jacobi_acceleration_rms_error"].to_numpy()
+    finite = np.flatnonzero(np.isfinite(values))
+    assert finite[0] > 0 and finite[-1] < len(values) - 1
+    assert len(finite) == finite[-1] - finite[0] + 1
+    assert profile["spectral_velocity_rms_error"].notna().all()
+
+
+def test_ends_table_splits_start_middle_and_end():
+    n = 100
+    start, middle, end = np.full(5, 3.0), np.full(90, 1.0), np.full(5, 4.0)
+    acceleration = np.r_[np.full(5, np.nan), middle, np.full(5, np.nan)]
+    velocity = np.r_[start, middle, end]
+    profile = pd.DataFrame({"t_s": np.arange(n) * 1e-3, "a_velocity_rms_error": velocity,
+                            "a_acceleration_rms_error": acceleration})  # fmt: skip
+    table = paper.ends_table(profile, end_fraction=0.05).set_index("n")
+    assert table.loc["ẋ", ["start", "middle", "end", "worst end / middle"]].tolist() == [3, 1, 4, 4]
+    assert table.loc["ẋ", "coverage"] == 1.0
+    assert np.isnan(table.loc["ẍ", "start"]) and np.isnan(table.loc["ẍ", "worst end / middle"])
+    assert table.loc["ẍ", "coverage"] == 0.9

@@ -329,3 +329,52 @@ def test_whole_record_tuning_refuses_masked_ends_and_the_no_truth_criterion(tmp_
     assert (rows["tuned_region"] == "whole").all()
     text = (tmp_path / "paper-signal" / "rmse.md").read_text()
     assert "oracle-tuned for ẋ (whole record)" in text and "**whole record**" in text
+
+
+def test_tuning_table_keeps_each_tuning_apart_on_the_interior_and_the_whole_record():
+    """The 1-seed and the 10-seed whole-record tunings are columns of their own (never
+    averaged together), each scored on the interior and on the whole record."""
+    import pandas as pd
+
+    from diffbench.bench.reports import tuning_table
+
+    def cells(origin, criterion, seeds, region_tuned, interior, whole, coverage):
+        rows = []
+        for seed, shift in enumerate((-1.0, 1.0)):
+            for region, value in (("interior", interior), ("valid", whole)):
+                rows.append({"method": "m", "origin": origin, "criterion": criterion,
+                             "tuned_order": 1 if origin == "tuned" else None,
+                             "tuning_seeds": seeds, "tuned_region": region_tuned, "order": 1,
+                             "region": region, "metric": "rmse", "seed": seed,
+                             "value": value + shift})  # fmt: skip
+            rows.append({"method": "m", "origin": origin, "criterion": criterion,
+                         "tuned_order": 1 if origin == "tuned" else None, "tuning_seeds": seeds,
+                         "tuned_region": region_tuned, "order": 1, "region": "valid",
+                         "metric": "coverage", "seed": seed, "value": coverage})  # fmt: skip
+        return rows
+
+    frame = pd.DataFrame(
+        cells("preset", "", 1, "interior", 5.0, 9.0, 0.95)
+        + cells("tuned", "oracle", 1, "interior", 3.0, 8.0, 0.9)
+        + cells("tuned", "oracle", 10, "whole", 4.0, 6.0, 1.0)
+    )
+    tunings = pd.DataFrame(
+        [
+            {
+                "method": "m",
+                "order": 1,
+                "criterion": "oracle",
+                "tuning_seeds": s,
+                "region": r,
+                "seconds": t,
+            }
+            for s, r, t in ((1, "interior", 2.0), (10, "whole", 20.0))
+        ]
+    )
+    table = tuning_table(frame, tunings).set_index("scored on")
+    interior, whole = table.loc["interior"], table.loc["whole record"]
+    assert (interior["preset"], interior["oracle"], interior["oracle 10 seeds whole"]) == (5, 3, 4)
+    assert (whole["preset"], whole["oracle"], whole["oracle 10 seeds whole"]) == (9, 8, 6)
+    assert pd.isna(interior["oracle 10 seeds"]) and pd.isna(interior["no-truth"])
+    assert whole["oracle s"] == 2.0 and whole["oracle 10 seeds whole s"] == 20.0
+    assert whole["least coverage"] == 0.9 and pd.isna(interior["least coverage"])
