@@ -265,7 +265,8 @@ def _cmd_list(args) -> None:
         shipped = [p for p in plugins if f"{cls.__module__}.".startswith(f"{p.module}.")]
         origin = f"; plugin {shipped[0].label}" if shipped else ""
         kind = "linear" if cls.linear else "nonlinear"
-        print(f"  {name}  ({kind}; runs {methods.package_of(name)}; {cls.reference}{origin})")
+        print(f"  {name}  ({kind}; runs {methods.package_of(name)}; {cls.reference}{origin}; "
+              f"time stamps: {cls.time_stamps})")  # fmt: skip
         if cls.second_derivative != "native":
             print(f"      ẍ: {cls.second_derivative}")
         for spec in methods.params_of(cls):

@@ -153,12 +153,22 @@ def _winner_text(row) -> str:
         return "—"
     star = "*" if row["significant"] else ""
     note = " †" if row["vanishing"] else ""
+    irregular = bool(row["task"]) and bool(signals.get_scenario(row["task"]).sampling)
+    winner = _with_handling(row["winner"], irregular)
     if pd.isna(row["runner_up"]):
-        return f"{row['winner']} ({row['rmse']:.3g}; the only one ranked){note}"
+        return f"{winner} ({row['rmse']:.3g}; the only one ranked){note}"
     return (
-        f"{row['winner']}{star} ({row['rmse']:.3g}; next "
-        f"{row['runner_up']} {row['runner_up_rmse']:.3g}){note}"
+        f"{winner}{star} ({row['rmse']:.3g}; next "
+        f"{_with_handling(row['runner_up'], irregular)} {row['runner_up_rmse']:.3g}){note}"
     )
+
+
+def _with_handling(name: str, irregular: bool) -> str:
+    """``name``, marked ``(resampled)`` on irregular samples when the method has no handling
+    of time stamps of its own (a method no longer registered is left unmarked)."""
+    if not irregular or name not in methods.available():
+        return name
+    return f"{name} (resampled)" if methods.method_class(name).time_stamps != "native" else name
 
 
 def write_winners(rows: pd.DataFrame, directory: Path) -> list[Path]:
@@ -191,8 +201,9 @@ def write_winners(rows: pd.DataFrame, directory: Path) -> list[Path]:
             "component of the noise aliases to 0 Hz at this step (its samples are all zero), "
             "only the other components remain. The jitter and dropout rows: the time stamps "
             "moved by up to ±30 % of the step, or 10 % of the samples lost, scored at the "
-            "measured times (methods without their own handling of time stamps resample; "
-            "`diffbench list`); `—`: not run at that step. **whole**: the RMSE over each "
+            "measured times (`(resampled)`: a method without its own handling of time stamps, "
+            "run on the record resampled to the nominal grid and back; `diffbench list`); `—`: "
+            "not run at that step. **whole**: the RMSE over each "
             "setting's own valid samples, among the settings that estimate at least "
             f"{tables.WHOLE_COVERAGE:.0%} of the record on every seed. The signal: sin 2π4t + "
             "sin 2π9t + sin 2π15t over 0.93 s (not a whole number of periods).\n\nMethods and "

@@ -33,6 +33,9 @@ from diffbench.methods._validation import (
 
 _REGISTRY: dict[str, type[Method]] = {}
 
+TIME_STAMPS = ("native", "resampled")
+"""How a method may take irregular time stamps (``Method.time_stamps``)."""
+
 PARAM_KINDS = (None, "window", "frequency")
 """What a parameter may declare itself to be (``Param.kind``): nothing in particular, a window
 length in seconds, or a frequency in Hz."""
@@ -232,6 +235,13 @@ class Method:
             return self._uniform(x, step, orders)
         orders = check_orders(orders)
         if self.time_stamps == "native":
+            longest = self.max_samples(step)
+            if longest is not None and x.shape[0] > longest:
+                raise ValueError(
+                    f"`x` has {x.shape[0]} samples on axis 0; {self.name} accepts at most "
+                    f"{longest} ({self.max_samples_reason}); split the record or pick another "
+                    "method"
+                )
             values, valid = self._estimate_at(x, times, orders)
             return Estimate(values=values, valid=valid)
         grid, grid_step = uniform_grid(times, nominal)
@@ -374,7 +384,8 @@ def register(name: str):
     """Class decorator registering a method under ``name``.
 
     The class is made a frozen dataclass; a duplicate name, a parameter not declared with
-    :func:`param`, a parameter ``kind`` not in :data:`PARAM_KINDS`, or a preset naming an
+    :func:`param`, a parameter ``kind`` not in :data:`PARAM_KINDS`, a ``time_stamps`` not in
+    :data:`TIME_STAMPS` (or "native" without an ``_estimate_at``), or a preset naming an
     unknown parameter or an out-of-range value is an error.
     """
 
@@ -392,6 +403,12 @@ def register(name: str):
                     f"{name}: parameter `{spec.name}` has kind {spec.kind!r}; "
                     f"it must be one of {kinds}"
                 )
+        if cls.time_stamps not in TIME_STAMPS:
+            raise ValueError(
+                f"{name}: time_stamps is {cls.time_stamps!r}; it must be one of {TIME_STAMPS}"
+            )
+        if cls.time_stamps == "native" and cls._estimate_at is Method._estimate_at:
+            raise ValueError(f"{name}: time_stamps 'native' needs an _estimate_at of its own")
         for key, preset in cls.presets.items():
             unknown = set(preset.values) - set(specs)
             if unknown:

@@ -36,6 +36,11 @@ class PeerMethod(Method):
     peer_call: ClassVar[str] = ""
     """The peer's function or class that runs, as its users write it."""
 
+    def _estimate_at(self, x, times, orders):
+        # a peer whose function takes the time stamps in place of the step (its
+        # ``time_stamps`` is "native") is handed them as they are
+        return self._estimate(x, times, orders)
+
     def min_samples(self, dt: float) -> int:
         # second-order differences of ẋ need three samples; one more keeps ends off each other
         return 4
@@ -57,7 +62,7 @@ class PeerMethod(Method):
                 raise  # a TypeError or the like: a bug of the adapter, shown as it is
             setting = ", ".join(f"`{k}`={v!r}" for k, v in self.params().items())
             raise ValueError(
-                f"{self.peer_call} failed at {setting} with dt={dt!r} "
+                f"{self.peer_call} failed at {setting} with {_step_text(dt)} "
                 f"({type(error).__name__}: {error}); choose other parameters"
             ) from error
         values, valid = {}, {}
@@ -69,10 +74,16 @@ class PeerMethod(Method):
                 setting = ", ".join(f"`{k}`={v!r}" for k, v in self.params().items())
                 raise ValueError(
                     f"{self.peer_call} returned no finite value of order {order} at {setting} "
-                    f"with dt={dt!r}; choose other parameters"
+                    f"with {_step_text(dt)}; choose other parameters"
                 )
             values[order], valid[order] = value, finite
         return values, valid
+
+
+def _step_text(dt) -> str:
+    if np.ndim(dt):
+        return f"time stamps t ({np.size(dt)} of them)"
+    return f"dt={dt!r}"
 
 
 def _peer_refusal(error: Exception) -> bool:

@@ -143,6 +143,8 @@ class PolyDiff(_Peer):
     peer_call = "pynumdiff.polydiff"
     presets = tuned_preset("PyNumDiff", degree=7, window_size=148, kernel="friedrichs")
 
+    time_stamps = "native"  # PyNumDiff takes the time stamps in place of dt
+
     def min_samples(self, dt: float) -> int:
         if self.window_size <= self.degree:
             raise ValueError(f"`window_size` must exceed `degree` ({self.degree}), got "
@@ -165,6 +167,8 @@ class SplineDiff(_Peer):
     peer_call = "pynumdiff.splinediff"
     presets = tuned_preset("PyNumDiff", degree=5, s=1.35)
 
+    time_stamps = "native"  # PyNumDiff takes the time stamps in place of dt
+
     def min_samples(self, dt: float) -> int:
         return 2 * (self.degree + 1)
 
@@ -186,6 +190,8 @@ class RtsDiff(_Peer):
     )
     peer_call = "pynumdiff.rtsdiff"
     presets = tuned_preset("PyNumDiff", order=3, log_qr_ratio=14.5, forwardbackward=1)
+
+    time_stamps = "native"  # PyNumDiff takes the time stamps in place of dt
 
     def _smooth_and_first(self, x, dt):
         return _pynumdiff().rtsdiff(x, dt, self.order, self.log_qr_ratio,
@@ -243,6 +249,8 @@ class RbfDiff(_Peer):
     peer_call = "pynumdiff.rbfdiff"
     presets = tuned_preset("PyNumDiff", sigma=0.0399, lmbd=0.00208)
     max_samples_reason = "its basis matrix grows as N², about 2 s at 2e4 samples"
+
+    time_stamps = "native"  # PyNumDiff takes the time stamps in place of dt
 
     def max_samples(self, dt: float) -> int | None:
         return 20_000

@@ -22,7 +22,8 @@ def test_list_shows_methods_parameters_presets_and_tasks(capsys):
     for text in ("butterworth", "cutoff_hz", "preset paper-signal (by paper): order=6, "
                  "cutoff_hz=25.0", "savitzky_golay", "window_s", "paper-signal [signal]",
                  "robot-sim [robot (simulated)]", "dfki-cv [robot (real)]",
-                 "jacobi-influence", "36 grid tasks"):  # fmt: skip
+                 "jacobi-influence", "40 grid tasks", "Fornberg (1988); time stamps: native)",
+                 "Guo et al., AIM 2015; time stamps: resampled)"):  # fmt: skip
         assert text in out
     assert "grid-gaussian-0.02-0.1ms [" not in out
 

@@ -121,6 +121,9 @@ def test_irregular_sampling_rows_are_ranked_where_run_and_dashed_elsewhere(tmp_p
 
     name = grid_sampling_name("jitter", 1e-3)
     rows = _rows(name, (("a", 0.0), ("b", 1.0)))
+    marked = _rows(name, (("spectral", 0.0), ("kalman", 1.0)))
+    text = grid._winner_text(grid.winners(marked, 2).query("task == @name").iloc[0])
+    assert text.startswith("spectral (resampled)*") and "next kalman " in text  # kalman: native
     table = grid.winners(rows, 2)
     jitter = table[table["noise"].str.contains("jitter")].set_index("step_ms")
     assert jitter.loc[1.0, "winner"] == "a" and jitter.loc[1.0, "task"] == name

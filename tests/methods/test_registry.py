@@ -48,6 +48,20 @@ def test_undeclared_parameter_is_an_error():
             width: float = 1.0
 
 
+def test_time_stamps_declaration_is_checked_at_registration():
+    with pytest.raises(ValueError, match=r"time_stamps is 'yes'; it must be one of"):
+
+        @register("_test_bad_stamps")
+        class BadStamps(Method):
+            time_stamps = "yes"
+
+    with pytest.raises(ValueError, match=r"'native' needs an _estimate_at of its own"):
+
+        @register("_test_native_without")
+        class NativeWithout(Method):
+            time_stamps = "native"
+
+
 def test_preset_with_out_of_range_value_is_rejected_at_registration():
     with pytest.raises(ValueError, match=r"`width` must be a finite number in \(0, inf\)"):
 
