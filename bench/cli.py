@@ -12,6 +12,7 @@ import argparse
 import contextlib
 import math
 import os
+import signal
 import sys
 from importlib import metadata
 from pathlib import Path
@@ -539,10 +540,18 @@ def _cmd_timing(args) -> None:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``diffbench`` console script; returns the exit code."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    previous = terminate_on_sigterm()
+    try:
+        return _main(argv)
+    finally:
+        # called in-process (a test, a script), the caller keeps its own SIGTERM handling
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _main(argv: list[str]) -> int:
     try:
         args = build_parser().parse_args(argv)
         set_command(argv)
-        terminate_on_sigterm()
         _load_plugins(args.plugins)
         args.handler(args)
     except UsageError as error:

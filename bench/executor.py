@@ -25,13 +25,14 @@ class Terminated(BaseException):
     """Raised in the main process when it receives SIGTERM (see :func:`terminate_on_sigterm`)."""
 
 
-def terminate_on_sigterm() -> None:
-    """Turn SIGTERM into a :class:`Terminated` exception, so cleanup code runs."""
+def terminate_on_sigterm():
+    """Turn SIGTERM into a :class:`Terminated` exception, so cleanup code runs; returns the
+    handler it replaced (give it back to ``signal.signal`` when done)."""
 
     def handler(signum, frame):
         raise Terminated
 
-    signal.signal(signal.SIGTERM, handler)
+    return signal.signal(signal.SIGTERM, handler)
 
 
 def _watch_parent(parent: int) -> None:

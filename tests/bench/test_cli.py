@@ -28,6 +28,22 @@ def test_list_shows_methods_parameters_presets_and_tasks(capsys):
     assert "grid-gaussian-0.02-0.1ms [" not in out
 
 
+def test_main_in_process_gives_back_the_callers_sigterm_handler(capsys):
+    """A test or script calling main() keeps its own SIGTERM handling afterwards (a SIGTERM
+    later must not surface as diffbench's Terminated in unrelated code)."""
+    import signal
+
+    def mine(signum, frame):
+        return None
+
+    previous = signal.signal(signal.SIGTERM, mine)
+    try:
+        assert main(["list"]) == 0
+        assert signal.getsignal(signal.SIGTERM) is mine
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def test_version(capsys):
     assert main(["--version"]) == 0
     assert capsys.readouterr().out.startswith("diffbench ")
