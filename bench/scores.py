@@ -40,12 +40,18 @@ def error_metrics(estimate: np.ndarray, truth: np.ndarray, mask: np.ndarray) -> 
     }
 
 
+def is_uniform(realisation) -> bool:
+    """Whether a realisation is uniformly sampled: its ``uniform`` flag; one without the flag
+    (``x``, ``dt_s``, ``interior``, ``truth`` only, as a tuner takes) is."""
+    return bool(getattr(realisation, "uniform", True))
+
+
 def estimate_on(method, realisation, samples=None, orders=(0, 1, 2)) -> Estimate:
     """``method`` on a realisation's samples (or on ``samples`` taken at the same times: the
     clean signal, the noise alone), given its step when the sampling is uniform, and its time
     stamps (``t=``) with the nominal step when it is not."""
     x = realisation.x if samples is None else samples
-    if realisation.uniform:
+    if is_uniform(realisation):
         return method(x, realisation.dt_s, orders)
     return method(x, realisation.dt_s, orders, t=realisation.t)
 

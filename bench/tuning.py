@@ -37,7 +37,7 @@ import numpy as np
 from scipy import integrate, optimize
 
 from diffbench import methods
-from diffbench.bench.scores import estimate_on
+from diffbench.bench.scores import estimate_on, is_uniform
 
 CRITERIA = ("oracle", "no-truth", "pynumdiff")
 
@@ -288,7 +288,7 @@ def tune(
         if not (isinstance(cutoff_hz, (int, float)) and 0 < cutoff_hz < nyquist):
             raise ValueError(f"`cutoff_hz` must lie strictly inside (0, {nyquist:g}) Hz (the "
                              f"Nyquist frequency), got {cutoff_hz!r}")  # fmt: skip
-    if criterion != "oracle" and not all(r.uniform for r in realisations):
+    if criterion != "oracle" and not all(is_uniform(r) for r in realisations):
         raise ValueError(f"the {criterion} criterion needs uniform samples; tune irregularly "
                          "sampled records with 'oracle'")  # fmt: skip
     if criterion == "no-truth" and not methods.method_class(name).linear:

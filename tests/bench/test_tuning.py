@@ -378,3 +378,27 @@ def test_tuning_table_keeps_each_tuning_apart_on_the_interior_and_the_whole_reco
     assert pd.isna(interior["oracle 10 seeds"]) and pd.isna(interior["no-truth"])
     assert whole["oracle s"] == 2.0 and whole["oracle 10 seeds whole s"] == 20.0
     assert whole["least coverage"] == 0.9 and pd.isna(interior["least coverage"])
+
+
+def test_irregular_samples_are_tuned_at_their_time_stamps_by_the_oracle_only():
+    """On jittered samples the oracle scores each setting at the measured times (the
+    native finite differences given t, not the nominal grid); data-only criteria, which
+    assume a uniform step, refuse."""
+    import numpy as np
+
+    from diffbench import methods, signals
+    from diffbench.bench import tuning
+
+    realisation = signals.get_scenario("grid-gaussian-0.2-10ms-jitter").realise(1)
+    with pytest.raises(ValueError, match="needs uniform samples"):
+        tuning.tune("spectral", realisation, 1, criterion="no-truth", cutoff_hz=20.0)
+    found = tuning.tune("finite_difference", realisation, 1)
+    estimate = methods.get("finite_difference", **found.params)(
+        realisation.x, realisation.dt_s, t=realisation.t
+    )
+    inside = realisation.interior
+    expected = float(np.sqrt(np.mean((estimate[1] - realisation.truth[1])[inside] ** 2)))
+    assert found.loss == pytest.approx(expected, rel=1e-6)
+    ignoring = methods.get("finite_difference", **found.params)(realisation.x, realisation.dt_s)
+    wrong = float(np.sqrt(np.mean((ignoring[1] - realisation.truth[1])[inside] ** 2)))
+    assert abs(wrong - found.loss) > 0.1 * found.loss  # not the score on the nominal grid

@@ -54,7 +54,7 @@ def test_available_scenarios_lists_the_builtins_sorted():
     names = available_scenarios()
     assert names == sorted(names)
     assert [n for n in names if not n.startswith("grid-")] == BUILTIN
-    assert len([n for n in names if n.startswith("grid-")]) == 36
+    assert len([n for n in names if n.startswith("grid-")]) == 36 + 4  # + jitter, dropout
 
 
 def test_unknown_scenario_lists_the_valid_names():
