@@ -59,7 +59,7 @@ NATIVE_WITH_PAPER_PRESET = [
 
 NOT_YET_CHECKED = {
     "gaussian_process_ml": "its hyperparameters come from the data (not linear): no probe yet",
-    "smoothing_spline": "its smoothing comes from the data by GCV (not linear): no probe yet",
+    "smoothing_spline": "linear but global: no reach declared, so its ends are not probed",
     "total_variation": "not linear: no probe yet",
     "gaussian_process": "linear but global: its reach is not declared yet, so no probe",
 }
