@@ -107,6 +107,12 @@ def _trusted(method, n_samples: int, dt: float, orders: tuple[int, ...]) -> dict
     return masks
 
 
+def mask_untrusted(values: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """``values`` (time on axis 0) with NaN at the time steps ``keep`` leaves out."""
+    shape = (-1,) + (1,) * (values.ndim - 1)
+    return np.where(keep.reshape(shape), values, np.nan)
+
+
 def _from_last_failure(passes: np.ndarray) -> np.ndarray:
     """True from just after the last failing sample on: an end is trusted from the first sample
     after which every sample towards the interior passes (no holes in the mask)."""

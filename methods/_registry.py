@@ -18,7 +18,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from diffbench.methods._ends import trusted_samples
+from diffbench.methods._ends import mask_untrusted, trusted_samples
 from diffbench.methods._fir import apply_central_fir, fir_response
 from diffbench.methods._plugins import load_automatic_plugins, missing_hint
 from diffbench.methods._time_stamps import from_grid, to_grid, uniform_grid
@@ -235,13 +235,7 @@ class Method:
             return self._uniform(x, step, orders)
         orders = check_orders(orders)
         if self.time_stamps == "native":
-            longest = self.max_samples(step)
-            if longest is not None and x.shape[0] > longest:
-                raise ValueError(
-                    f"`x` has {x.shape[0]} samples on axis 0; {self.name} accepts at most "
-                    f"{longest} ({self.max_samples_reason}); split the record or pick another "
-                    "method"
-                )
+            self._check_longest(x.shape[0], step)
             values, valid = self._estimate_at(x, times, orders)
             return Estimate(values=values, valid=valid)
         grid, grid_step = uniform_grid(times, nominal)
@@ -268,17 +262,20 @@ class Method:
     def _estimate_at(self, x: np.ndarray, times: np.ndarray, orders) -> tuple[dict, dict]:
         raise NotImplementedError(f"{self.name} has no estimate at irregular times")
 
+    def _check_longest(self, n_samples: int, dt: float) -> None:
+        longest = self.max_samples(dt)
+        if longest is not None and n_samples > longest:
+            raise ValueError(
+                f"`x` has {n_samples} samples on axis 0; {self.name} accepts at most {longest} "
+                f"({self.max_samples_reason}); split the record or pick another method"
+            )
+
     def _uniform(self, x, dt: float, orders) -> Estimate:
         orders = check_orders(orders)
         dt = check_dt(dt)
         # the signal's length first: it is cheap, and check_step may build taps
         x, dt = check_signal(x, dt, min_samples=self.min_samples(dt))
-        longest = self.max_samples(dt)
-        if longest is not None and x.shape[0] > longest:
-            raise ValueError(
-                f"`x` has {x.shape[0]} samples on axis 0; {self.name} accepts at most {longest} "
-                f"({self.max_samples_reason}); split the record or pick another method"
-            )
+        self._check_longest(x.shape[0], dt)
         self.check_step(dt)
         values, valid = self._estimate(x, dt, orders)
         reach = self.end_reach(dt) if self.linear else None
@@ -294,8 +291,7 @@ class Method:
                         f"longer record, or settings with a shorter reach"
                     )
                 if not keep.all():
-                    shape = (-1,) + (1,) * (x.ndim - 1)
-                    values[order] = np.where(keep.reshape(shape), values[order], np.nan)
+                    values[order] = mask_untrusted(values[order], keep)
                 valid[order] = keep
         return Estimate(values=values, valid=valid)
 

@@ -440,7 +440,7 @@ class KalmanSmoother(Method):
     def _estimate_at(self, x, times, orders):
         from filterpy.kalman import KalmanFilter
 
-        from diffbench.methods._ends import trusted_times
+        from diffbench.methods._ends import mask_untrusted, trusted_times
 
         n = times.size
         if n < self.min_samples(1.0):
@@ -452,6 +452,7 @@ class KalmanSmoother(Method):
         flat = x.reshape(n, -1)
         Fs, Qs, to_derivatives = irregular_models(self.model_order, times, self.bandwidth_hz)
         states = self.model_order + 1
+        trusted = trusted_times(self, times, step, orders)  # before the filter: may refuse
         mean0, covariance0 = initial_state(flat, states, (times - times[0]) / step + 1.0)
         smoothed = np.empty((n, states, flat.shape[1]))
         for channel in range(flat.shape[1]):
@@ -462,11 +463,8 @@ class KalmanSmoother(Method):
             kf.R = np.eye(1)
             means, covariances, _, _ = kf.batch_filter(flat[:, channel], Fs=Fs, Qs=Qs)
             smoothed[:, :, channel] = kf.rts_smoother(means, covariances, Fs=Fs, Qs=Qs)[0]
-        trusted = trusted_times(self, times, step, orders)
-        values, valid = {}, {}
-        shape = (-1,) + (1,) * (x.ndim - 1)
+        values = {}
         for order in orders:
             estimate = (smoothed[:, order, :] * to_derivatives[order]).reshape(x.shape)
-            values[order] = np.where(trusted[order].reshape(shape), estimate, np.nan)
-            valid[order] = trusted[order]
-        return values, valid
+            values[order] = mask_untrusted(estimate, trusted[order])
+        return values, trusted

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from diffbench.methods._ends import trusted_times
+from diffbench.methods._ends import mask_untrusted, trusted_times
 from diffbench.methods._local_poly import (
     local_polynomial_at,
     local_polynomial_weights,
@@ -123,7 +123,6 @@ class SavitzkyGolay(FirMethod):
             )
         values = local_polynomial_at(x, times, self.window_s, self.degree, orders)
         valid = trusted_times(self, times, grid_step, orders)
-        shape = (-1,) + (1,) * (x.ndim - 1)
         for order in orders:
-            values[order] = np.where(valid[order].reshape(shape), values[order], np.nan)
+            values[order] = mask_untrusted(values[order], valid[order])
         return values, valid
