@@ -23,6 +23,7 @@ from diffbench.methods._fir import apply_central_fir, fir_response
 from diffbench.methods._plugins import load_automatic_plugins, missing_hint
 from diffbench.methods._time_stamps import from_grid, to_grid, uniform_grid
 from diffbench.methods._validation import (
+    MAX_WINDOW_STEPS,
     check_dt,
     check_orders,
     check_signal,
@@ -36,9 +37,17 @@ _REGISTRY: dict[str, type[Method]] = {}
 TIME_STAMPS = ("native", "resampled")
 """How a method may take irregular time stamps (``Method.time_stamps``)."""
 
-PARAM_KINDS = (None, "window", "frequency")
+PARAM_KINDS = (None, "window", "frequency", "duration")
 """What a parameter may declare itself to be (``Param.kind``): nothing in particular, a window
-length in seconds, or a frequency in Hz."""
+length in seconds, a frequency in Hz, or a time scale in seconds of at least one step."""
+
+DEFAULT_NYQUIST_FRACTION = 0.5
+"""A frequency left at its class default that the step cannot take is lowered to this fraction
+of the Nyquist frequency (:meth:`Method.at_step`)."""
+
+DEFAULT_WINDOW_GROWTH = 1.25
+"""A window left at its class default that the method refuses at a step, once snapped to the
+step, grows by this factor (at least one step each side) until the method takes it."""
 
 
 @dataclass(frozen=True)
@@ -49,13 +58,15 @@ class Param:
     ``tune_high`` bound the range a tuner searches, on a log scale when ``log`` is true.
     ``kind`` says what the value means, so that no caller guesses it from the name:
     ``"window"`` for a window length in seconds (a whole, even number of sampling steps),
-    ``"frequency"`` for a frequency in Hz (below Nyquist), ``None`` otherwise (one of
-    :data:`PARAM_KINDS`, checked at registration). Limits that depend on the sampling step are
-    checked by the method's ``check_step(dt)``, not here. ``untuned`` says why a numeric
-    parameter has no tuning range (the tuners leave it at its value). ``ends_only``: the
-    parameter changes the estimate only near the ends of the record (an edge treatment), so
-    only a loss taken on the whole record tunes it; a loss on the interior leaves it at its
-    value.
+    ``"frequency"`` for a frequency in Hz (below Nyquist), ``"duration"`` for a time scale in
+    seconds that must span at least one step (a kernel width, a length scale), ``None``
+    otherwise (one of :data:`PARAM_KINDS`, checked at registration); the kind also says how a
+    default that does not fit the step is adapted (:meth:`Method.at_step`). Limits that
+    depend on the sampling step are checked by the method's ``check_step(dt)``, not here.
+    ``untuned`` says why a numeric parameter has no tuning range (the tuners leave it at its
+    value). ``ends_only``: the parameter changes the estimate only near the ends of the record
+    (an edge treatment), so only a loss taken on the whole record tunes it; a loss on the
+    interior leaves it at its value.
     """
 
     name: str
@@ -112,6 +123,11 @@ class Param:
         if too_low or too_high:
             raise ValueError(f"`{self.name}` must be {allowed}, got {value!r}")
         return value
+
+
+def _clean(value: float) -> float:
+    """``value`` to 12 significant digits: 0.2, not 0.20000000000000001 from 2 * 0.1."""
+    return float(f"{value:.12g}")
 
 
 def _fmt(value: float) -> str:
@@ -235,8 +251,9 @@ class Method:
             return self._uniform(x, step, orders)
         orders = check_orders(orders)
         if self.time_stamps == "native":
-            self._check_longest(x.shape[0], step)
-            values, valid = self._estimate_at(x, times, orders)
+            adapted = self.at_step(step)
+            adapted._check_longest(x.shape[0], step)
+            values, valid = adapted._estimate_at(x, times, orders)
             return Estimate(values=values, valid=valid)
         grid, grid_step = uniform_grid(times, nominal)
         try:
@@ -270,9 +287,79 @@ class Method:
                 f"({self.max_samples_reason}); split the record or pick another method"
             )
 
+    def at_step(self, dt: float) -> Method:
+        """This method as it runs at sampling step ``dt``.
+
+        Itself, unless the step refuses a parameter left at its class default (one the caller,
+        or the preset, did not give); then those defaults are adapted by one stated rule, so
+        that ``methods.get(name)`` runs at any step:
+
+        - a frequency (``kind="frequency"``) is lowered to :data:`DEFAULT_NYQUIST_FRACTION`
+          of the Nyquist frequency :math:`1/(2\\Delta t)`;
+        - a duration (``kind="duration"``) is raised to one step;
+        - a window (``kind="window"``) is snapped to the nearest whole even number of steps (at
+          least two), then, while the method still refuses it, grown by
+          :data:`DEFAULT_WINDOW_GROWTH` (at least one step each side) up to
+          :data:`~diffbench.methods._validation.MAX_WINDOW_STEPS`.
+
+        Values the caller set are never changed: the step takes them or the call refuses them
+        by name. Where the rule finds nothing the method takes, this returns itself and the
+        call gives its own error. ``method.at_step(dt).params()`` are the values a call at
+        ``dt`` uses.
+        """
+        dt = check_dt(dt)
+        if not dataclasses.is_dataclass(self):  # a Method subclass not (yet) registered
+            return self
+        defaulted = [
+            spec
+            for spec in params_of(type(self))
+            if spec.kind is not None and spec.name not in getattr(self, "_given", ())
+        ]
+        if not defaulted or self._takes_step(dt):
+            return self
+        changes, windows = {}, []
+        for spec in defaulted:
+            value = getattr(self, spec.name)
+            if spec.kind == "frequency":
+                changes[spec.name] = min(value, _clean(DEFAULT_NYQUIST_FRACTION * 0.5 / dt))
+            elif spec.kind == "duration":
+                changes[spec.name] = max(value, dt)
+            else:
+                windows.append(spec.name)
+                changes[spec.name] = max(1, round(value / (2 * dt)))  # half width, in steps
+        while True:
+            values = {
+                name: _clean(2 * value * dt) if name in windows else value
+                for name, value in changes.items()
+            }
+            try:
+                adapted = dataclasses.replace(self, **values)
+            except ValueError:  # outside the parameter's declared range
+                return self
+            if adapted._takes_step(dt):
+                return adapted
+            half_widths = [changes[name] for name in windows]
+            if not windows or 2 * max(half_widths) >= MAX_WINDOW_STEPS:
+                return self
+            for name in windows:
+                grown = max(changes[name] + 1, math.ceil(DEFAULT_WINDOW_GROWTH * changes[name]))
+                changes[name] = min(grown, MAX_WINDOW_STEPS // 2)
+
+    def _takes_step(self, dt: float) -> bool:
+        """Whether the settings fit step ``dt`` (``min_samples`` and ``check_step`` pass)."""
+        try:
+            self.min_samples(dt)
+            self.check_step(dt)
+        except ValueError:
+            return False
+        return True
+
     def _uniform(self, x, dt: float, orders) -> Estimate:
         orders = check_orders(orders)
         dt = check_dt(dt)
+        adapted = self.at_step(dt)
+        if adapted is not self:
+            return adapted._uniform(x, dt, orders)
         # the signal's length first: it is cheap, and check_step may build taps
         x, dt = check_signal(x, dt, min_samples=self.min_samples(dt))
         self._check_longest(x.shape[0], dt)
@@ -338,9 +425,11 @@ class Method:
         the ideal is :math:`(i 2\\pi f)^n`. Linear methods only. Arguments are checked here,
         then the method's ``_response(frequency_hz, dt, order)`` computes it."""
         dt = check_dt(dt)
-        self.check_step(dt)
+        adapted = self.at_step(dt)
+        adapted.check_step(dt)
         check_orders((order,))
-        return self._response(np.atleast_1d(np.asarray(frequency_hz, dtype=np.float64)), dt, order)
+        frequency_hz = np.atleast_1d(np.asarray(frequency_hz, dtype=np.float64))
+        return adapted._response(frequency_hz, dt, order)
 
     def _response(self, frequency_hz: np.ndarray, dt: float, order: int) -> np.ndarray:
         raise NotImplementedError(f"{self.name} is not linear: it has no frequency response")
@@ -411,11 +500,26 @@ def register(name: str):
                 raise ValueError(f"{name}: preset {key!r} names unknown parameters {unknown}")
             for pname, value in preset.values.items():
                 specs[pname].check(value)
+        _remember_given(cls, tuple(specs))
         cls.name = name
         _REGISTRY[name] = cls
         return cls
 
     return decorate
+
+
+def _remember_given(cls: type[Method], names: tuple[str, ...]) -> None:
+    """Make instances of ``cls`` remember which parameters their caller gave (``_given``), so
+    that :meth:`Method.at_step` adapts only the others (not a field: equality, hashing and
+    ``params()`` do not see it)."""
+    init = cls.__init__
+
+    @functools.wraps(init)
+    def __init__(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        object.__setattr__(self, "_given", frozenset(names[: len(args)]) | frozenset(kwargs))
+
+    cls.__init__ = __init__
 
 
 def package_of(name: str) -> str:

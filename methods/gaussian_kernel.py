@@ -68,6 +68,7 @@ class GaussianKernel(FirMethod):
         tune_high=0.2,
         log=True,
         doc="standard deviation of the Gaussian, s (>= one step)",
+        kind="duration",
     )
     presets = {
         "paper-signal": Preset(

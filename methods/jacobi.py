@@ -26,6 +26,10 @@ from diffbench.methods.jacobi_kernel import (
 ENDS = ("shifted", "central")
 """Edge treatments: shifted windows at the ends (checked, see :mod:`methods._ends`), or none."""
 
+WEIGHT_FLOOR = 1e-30
+"""Sample weights below this fraction of the largest do not count towards the samples a
+shifted end fit needs (they change no digit of it)."""
+
 
 @register("jacobi")
 class Jacobi(FirMethod):
@@ -50,7 +54,9 @@ class Jacobi(FirMethod):
     with :math:`p^*` the least-squares polynomial of degree n+q (n+q+1 for κ = μ with even q,
     the same fit at the centre) on the window's samples with weights
     :math:`(1-\\tau_j)^{\\mu}(1+\\tau_j)^{\\kappa}` (exponents below 0 taken as 0): exact on the
-    same degree as the ``least_squares`` rule. An end sample stays valid only where its
+    same degree as the ``least_squares`` rule (lower where fewer samples carry weight than
+    that degree needs, as with κ = μ = 139 on 5 taps; the check below then decides). An end
+    sample stays valid only where its
     response is within twice the interior's error over the band the interior claims
     (:mod:`methods._ends`); the others are masked. ``ends="central"`` masks all of them (the
     paper's figures).
@@ -324,7 +330,10 @@ class Jacobi(FirMethod):
             m = self._half_width(order, dt)
             nodes = np.arange(-m, m + 1) / m
             weights = (1 - nodes) ** max(self.mu, 0.0) * (1 + nodes) ** max(self.kappa, 0.0)
-            degree = min(self._fit_degree(order), 2 * m)
+            # a fit needs degree + 1 samples that carry weight: the end nodes carry none for
+            # κ, μ > 0, and large κ, μ leave few more (κ = μ = 139 on 5 taps: one in 1e17)
+            carrying = np.count_nonzero(weights > weights.max() * WEIGHT_FLOOR)
+            degree = min(self._fit_degree(order), carrying - 1)
             ends = end_evaluators(m, degree, order, dt, sample_weights=weights)
             values[order] = apply_fir_with_ends(x, self.taps(order, dt), ends)
             valid[order] = np.isfinite(values[order]).reshape(x.shape[0], -1).all(axis=1)

@@ -2,11 +2,21 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.interpolate import make_smoothing_spline
 
+from diffbench.methods._ends import mask_untrusted, trusted_times
 from diffbench.methods._registry import Method, Preset, param, register
 from diffbench.methods._validation import check_frequency, mean_step
+
+END_REACH_PERIODS = 5.0
+"""How far, in periods of the cutoff, the ends of a record change the spline: its weights (the
+equivalent kernel, Silverman 1984: :math:`e^{-|u|/\\sqrt2 h}` with :math:`h = 1/(2\\pi f_c)`)
+fall below 1e-9 of their peak 4.7 periods away. The samples within this reach of an end are
+the ones the ends check probes (:mod:`methods._ends`); those estimated worse than twice the
+interior are masked (the natural ends, g'' = 0, miss ẍ most)."""
 
 MIN_CUTOFF_FRACTION = 1e-3
 """Lowest ``cutoff_hz`` as a fraction of the Nyquist frequency: λ grows as the cutoff to the
@@ -52,7 +62,9 @@ class SmoothingSpline(Method):
     computed by ``scipy.interpolate.make_smoothing_spline`` with
     :math:`\lambda = 1/(\Delta t (2\pi f_c)^4)` (:func:`smoothing_parameter`): the response
     (:func:`smoothing_spline_response`) is one half near ``cutoff_hz`` and falls as
-    :math:`f^{-4}`. Every sample is estimated (natural spline ends: g'' = 0 beyond the record).
+    :math:`f^{-4}`. Every sample is estimated (natural spline ends: g'' = 0 beyond the record);
+    the end samples worse than twice the interior over its band are masked (``END_REACH_PERIODS``,
+    :mod:`methods._ends`).
     Linear in the input; exact on straight lines everywhere (they cost no penalty: the
     least-squares line is taken out before the fit and added back exactly). Time stamps
     (``t=``) are native: the same fit at the measured times, λ set by the mean step.
@@ -104,6 +116,9 @@ class SmoothingSpline(Method):
     def min_samples(self, dt: float) -> int:
         return 5  # make_smoothing_spline's least
 
+    def end_reach(self, dt: float) -> int | None:
+        return math.ceil(END_REACH_PERIODS / (self.cutoff_hz * dt))
+
     def exact_degree(self, order: int) -> float | None:
         return 1
 
@@ -119,7 +134,11 @@ class SmoothingSpline(Method):
             raise ValueError(f"`x` has {times.size} samples on axis 0; at least 5 are needed")
         step = mean_step(times)
         self.check_step(step)
-        return self._fit(x, times, smoothing_parameter(self.cutoff_hz, step), orders)
+        values, _ = self._fit(x, times, smoothing_parameter(self.cutoff_hz, step), orders)
+        valid = trusted_times(self, times, step, orders)
+        for order in orders:
+            values[order] = mask_untrusted(values[order], valid[order])
+        return values, valid
 
     @staticmethod
     def _fit(x, t, lam, orders):

@@ -8,6 +8,7 @@ import math
 import numpy as np
 from scipy.linalg import LinAlgError, solveh_banded
 
+from diffbench.methods._ends import mask_untrusted
 from diffbench.methods._registry import Method, Preset, param, register
 
 TV_ORDERS = (1, 2)
@@ -314,7 +315,10 @@ class TotalVariation(Method):
     """Total-variation regularised differentiation: ℓ1 trend filtering, then second-order
     differences (see :func:`total_variation_derivatives`).
 
-    Every sample is estimated (no masked ends). Not linear (the ℓ1 penalty makes it a
+    Every sample is estimated; the first and last ẋ are masked (one-sided differences of the
+    trend: on the clean paper signal at the paper-signal preset they were 3.3 times the worst
+    interior error, the next samples are 2.6 times; the ends are not probed otherwise, the
+    method not being linear). Not linear (the ℓ1 penalty makes it a
     shrinkage); symmetric under time reversal (the problem is, and its solution is unique).
     Exact on polynomials of degree ``tv_order`` (they cost no penalty, so the trend is the
     data, and the differences are exact on quadratics).
@@ -368,4 +372,9 @@ class TotalVariation(Method):
     def _estimate(self, x, dt, orders):
         values = total_variation_derivatives(x, dt, orders, self.penalty, self.tv_order)
         valid = {order: np.ones(x.shape[0], dtype=bool) for order in orders}
+        if 1 in orders:
+            # ẋ's first and last samples come from one-sided differences of the trend, which
+            # amplify its end error (noise gain √26/2 against the central one's √2/2)
+            valid[1][[0, -1]] = False
+            values[1] = mask_untrusted(values[1], valid[1])
         return values, valid

@@ -131,6 +131,14 @@ class SavitzkyGolay(_Peer):
     peer_call = "derivative.SavitzkyGolay"
     presets = tuned_preset("derivative", order=5, window_s=0.074)
 
+    def check_step(self, dt: float) -> None:
+        # the peer fits the samples within ±window_s/2: it needs order + 1 of them (fewer gave
+        # garbage, not an error: ẋ 120 % off at window_s = 0.05 s, dt = 0.1 s)
+        if self.window_s / dt < self.order:
+            raise ValueError(f"`window_s` must hold order + 1 = {self.order + 1} samples at "
+                             f"dt={dt!r} s, i.e. be at least {self.order * dt:.6g} s, got "
+                             f"{self.window_s!r}")  # fmt: skip
+
     def min_samples(self, dt: float) -> int:
         steps = self.window_s / dt
         if not steps <= MAX_WINDOW_STEPS:

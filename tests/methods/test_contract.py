@@ -82,8 +82,12 @@ def test_constant_input_gives_zero_derivatives(name, params):
 @pytest.mark.parametrize(("name", "params"), method_cases())
 def test_exact_on_polynomials_of_the_claimed_degree(name, params):
     method = methods.get(name, **params)
-    t = np.linspace(-1.0, 1.0, 2001)
-    dt = t[1] - t[0]
+    dt = 1e-3
+    # long enough for the ends check to trust the middle (a 0.3 s Gaussian-process length
+    # scale reaches 6 s into the record: on 2 s nothing is within its interior's accuracy)
+    reach = (method.end_reach(dt) if method.linear else None) or 0
+    half = max(1000, reach + 20)
+    t = np.arange(-half, half + 1) * dt
     rng = np.random.default_rng(7)
     checked = 0
     for order in (0, 1, 2):
@@ -144,9 +148,17 @@ def test_channels_are_differentiated_independently(name, params):
         for j in range(3):
             alone = method(x[:, i, j], DT)
             for order in (0, 1, 2):
-                np.testing.assert_array_equal(together.valid[order], alone.valid[order])
+                # one mask for all channels: a sample is valid where it is for every channel
+                # (the same mask for a linear method; a data-driven end check may differ)
+                valid = together.valid[order]
+                if method.linear:
+                    np.testing.assert_array_equal(valid, alone.valid[order])
+                assert not (valid & ~alone.valid[order]).any()
                 np.testing.assert_allclose(
-                    together[order][:, i, j], alone[order], rtol=1e-12, atol=1e-9 / DT**order
+                    together[order][valid, i, j],
+                    alone[order][valid],
+                    rtol=1e-12,
+                    atol=1e-9 / DT**order,
                 )
 
 

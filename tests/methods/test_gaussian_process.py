@@ -70,13 +70,19 @@ def test_equals_scikit_learns_posterior_and_its_finite_differences():
     def predict(times):
         return regressor.predict(times[:, None])
 
-    estimate = methods.get("gaussian_process", length_scale_s=ell, noise_ratio=ratio)(x, DT)
+    estimate = posterior_derivatives(x, DT, (0, 1, 2), ell, ratio)
     np.testing.assert_allclose(estimate[0], predict(t) + line, rtol=0, atol=1e-10)
     h1, h2 = ell / 1000, ell / 1000
     first = (predict(t + h1) - predict(t - h1)) / (2 * h1) + slope
     second = (predict(t + h2) - 2 * predict(t) + predict(t - h2)) / h2**2
     np.testing.assert_allclose(estimate[1], first, rtol=0, atol=1e-6 * np.max(np.abs(first)))
     np.testing.assert_allclose(estimate[2], second, rtol=0, atol=1e-5 * np.max(np.abs(second)))
+    # the registered method is this posterior where its ends check keeps it
+    method = methods.get("gaussian_process", length_scale_s=ell, noise_ratio=ratio)(x, DT)
+    for order in (0, 1, 2):
+        valid = method.valid[order]
+        assert valid.mean() > 0.9
+        np.testing.assert_array_equal(method[order][valid], estimate[order][valid])
 
 
 @pytest.mark.parametrize(
@@ -94,21 +100,28 @@ def test_the_fft_solver_equals_a_dense_solve_of_the_whole_record(length_scale_s,
         np.testing.assert_allclose(fast[order], dense[order], rtol=0, atol=1e-8 * scale)
 
 
-def test_every_sample_is_estimated_and_lines_are_reproduced_to_the_ends():
+def test_lines_are_reproduced_to_the_ends_and_the_ends_check_keeps_most_samples():
+    """Every sample is estimated (the posterior is exact on the line, ends included); the
+    ends check then keeps 99 %, 97 %, 97 % of 1.2 s at the default 10 ms length scale."""
     t = np.arange(1200) * DT
     x = 2.5 - 4.0 * t
+    posterior = posterior_derivatives(x, DT, (0, 1, 2), 0.01, 0.1)
+    np.testing.assert_allclose(posterior[0], x, atol=1e-12)
+    np.testing.assert_allclose(posterior[1], -4.0, atol=1e-9)
+    np.testing.assert_allclose(posterior[2], 0.0, atol=1e-9)
     estimate = methods.get("gaussian_process")(x, DT)
-    np.testing.assert_allclose(estimate[0], x, atol=1e-12)
-    np.testing.assert_allclose(estimate[1], -4.0, atol=1e-9)
-    np.testing.assert_allclose(estimate[2], 0.0, atol=1e-9)
-    assert all(estimate.valid[order].all() for order in (0, 1, 2))
+    for order, least in ((0, 0.98), (1, 0.96), (2, 0.96)):
+        valid = estimate.valid[order]
+        assert valid.mean() >= least, (order, valid.mean())
+        np.testing.assert_array_equal(estimate[order][valid], posterior[order][valid])
 
 
-def test_a_smooth_signal_is_differentiated_accurately_ends_included():
+def test_a_smooth_signal_is_differentiated_accurately_on_every_valid_sample():
     """sin(2π·3t) + t² on 2 s without noise, against its analytic derivatives (errors relative
-    to their peak). At least 0.3 s from the ends: 1e-7, 3e-6, 5e-5 for x, ẋ, ẍ; at the ends
-    the zero-mean process reverts to the record's line, losing the curvature of t² (measured:
-    4e-5, 6e-3, 0.17)."""
+    to their peak). At least 0.3 s from the ends: 1e-7, 3e-6, 5e-5 for x, ẋ, ẍ. At the ends
+    the zero-mean process reverts to the record's line, losing the curvature of t² (measured on
+    every sample: 4e-5, 6e-3, 0.17); the ends check masks 57-89 samples each side, and the
+    valid samples stay within 3e-6, 7e-5, 8e-4."""
     t = np.arange(2001) * DT
     omega = 2 * np.pi * 3
     truth = [
@@ -118,10 +131,12 @@ def test_a_smooth_signal_is_differentiated_accurately_ends_included():
     ]
     estimate = methods.get("gaussian_process", length_scale_s=0.03, noise_ratio=1e-3)(truth[0], DT)
     inner = slice(300, -300)
-    for order, middle_bound, end_bound in ((0, 1e-7, 1e-4), (1, 3e-6, 1e-2), (2, 5e-5, 0.25)):
+    for order, middle_bound, end_bound in ((0, 1e-7, 1e-5), (1, 3e-6, 2e-4), (2, 5e-5, 2e-3)):
         error = np.abs(estimate[order] - truth[order]) / np.max(np.abs(truth[order]))
+        valid = estimate.valid[order]
         assert np.max(error[inner]) < middle_bound, (order, np.max(error[inner]))
-        assert np.max(error) < end_bound, (order, np.max(error))
+        assert np.max(error[valid]) < end_bound, (order, np.max(error[valid]))
+        assert valid.mean() > 0.9
 
 
 @pytest.mark.parametrize(("length_scale_s", "noise_ratio"), [(0.01, 0.1), (0.0472, 0.00405)])

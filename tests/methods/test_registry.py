@@ -119,13 +119,16 @@ def test_out_of_range_parameters_name_the_argument_and_range(name, params, messa
 @pytest.mark.parametrize("name", _registered())
 def test_windows_and_frequencies_say_their_kind(name):
     """``kind`` is declared, never guessed, and says what the name suffixes bench/tuning.py
-    guessed from (``*window_s``, ``*_hz``): reading ``spec.kind`` instead changes nothing."""
+    guessed from (``*window_s``, ``*_hz``; other times ``*_s`` are durations): reading
+    ``spec.kind`` instead changes nothing."""
     for spec in methods.params_of(methods.method_class(name)):
         guessed = (
             "window"
             if spec.name.endswith("window_s")
             else "frequency"
             if spec.name.endswith("_hz")
+            else "duration"
+            if spec.name.endswith("_s")
             else None
         )
         assert spec.kind == guessed, spec.name

@@ -17,7 +17,11 @@ def test_equals_scipys_smoothing_spline_with_the_stated_lambda():
     estimate = methods.get("smoothing_spline", cutoff_hz=12.0)(x, DT)
     spline = make_smoothing_spline(t, x, lam=1.0 / (DT * (2 * np.pi * 12.0) ** 4))
     for order, atol in ((0, 1e-9), (1, 1e-7), (2, 1e-4)):
-        np.testing.assert_allclose(estimate[order], spline.derivative(order)(t), atol=atol)
+        valid = estimate.valid[order]  # the ends check masks a few natural-end samples
+        assert valid.mean() > 0.9
+        np.testing.assert_allclose(
+            estimate[order][valid], spline.derivative(order)(t[valid]), atol=atol
+        )
 
 
 def test_the_response_is_one_half_near_the_cutoff_for_slow_sampling():

@@ -82,7 +82,8 @@ def test_resampled_methods_are_exact_on_cubics_through_the_cubic_spline():
     t = _jittered(n=201, step=0.005)
     t[0], t[-1] = 0.0, 200 * 0.005
     poly = np.polynomial.Polynomial([0.3, -1.0, 2.0, 1.5])
-    method = methods.get("jacobi", rule="least_squares")
+    # windows given, not defaults: a default would be adapted to the median step (at_step)
+    method = methods.get("jacobi", rule="least_squares", window_s=0.21, accel_window_s=0.21)
     assert method.time_stamps == "resampled" and method.exact_degree(2) >= 3
     with pytest.raises(ValueError, match="give `dt`, the nominal step, with `t`"):
         method(poly(t), t=t)  # the median step is not 5 ms: the window does not fit its grid
@@ -167,13 +168,16 @@ def test_smoothing_spline_at_irregular_times():
     u = np.linspace(0, 3, 301)
     x = np.sin(3 * u)
     uniform = method(x, 0.01)
-    values, _ = method._estimate_at(x, u, (0, 1, 2))
+    values, valid = method._estimate_at(x, u, (0, 1, 2))
     for order in (0, 1, 2):
+        np.testing.assert_array_equal(valid[order], uniform.valid[order])
         np.testing.assert_allclose(values[order], uniform[order], rtol=0, atol=1e-12)
     t = _jittered(n=301, step=0.01)
     estimate = method(2 * t + 1, t=t)
-    np.testing.assert_allclose(estimate[1], 2.0, rtol=0, atol=1e-10)
-    np.testing.assert_allclose(estimate[2], 0.0, rtol=0, atol=1e-8)
+    for order, truth, atol in ((1, 2.0, 1e-10), (2, 0.0, 1e-8)):
+        valid = estimate.valid[order]
+        assert valid.mean() > 0.8
+        np.testing.assert_allclose(estimate[order][valid], truth, rtol=0, atol=atol)
 
 
 def test_bad_time_stamps_are_refused_naming_t():

@@ -113,7 +113,11 @@ def test_polynomials_of_degree_k_are_kept_and_differentiated_exactly(tv_order):
     poly = np.polynomial.Polynomial([0.3, -1.2, 0.7][: tv_order + 1])
     estimate = methods.get("total_variation", penalty=1e-3, tv_order=tv_order)(poly(t), dt)
     for order in (0, 1, 2):
-        np.testing.assert_allclose(estimate[order], poly.deriv(order)(t), rtol=0, atol=1e-9)
+        valid = estimate.valid[order]  # all but ẋ's two end samples (one-sided differences)
+        assert valid.sum() == t.size - (2 if order == 1 else 0)
+        np.testing.assert_allclose(
+            estimate[order][valid], poly.deriv(order)(t[valid]), rtol=0, atol=1e-9
+        )
 
 
 def test_difference_stencils_are_exact_on_quadratics_at_every_sample():
@@ -146,7 +150,7 @@ def test_a_kink_in_the_slope_is_kept_sharp():
     slope = np.where(t < 0.5, 2.0, -1.0)
     x = truth + 0.01 * np.random.default_rng(5).standard_normal(t.size)
     estimate = methods.get("total_variation", penalty=1e-4, tv_order=1)(x, dt)
-    away = np.abs(t - 0.5) > 0.05
+    away = (np.abs(t - 0.5) > 0.05) & estimate.valid[1]
     assert np.max(np.abs(estimate[1][away] - slope[away])) < 0.1
     bends = np.abs(np.diff(estimate[0], 2)) > 1e-9
     assert bends.sum() <= 40 and np.all(np.abs(t[1:-1][bends] - 0.5) < 0.1)
@@ -158,7 +162,7 @@ def test_deterministic_and_equivariant_to_scale():
     first, second = method(x, 1e-3), method(x, 1e-3)
     np.testing.assert_array_equal(first[2], second[2])
     scaled = methods.get("total_variation", penalty=4e-7, tv_order=2)(4 * x, 1e-3)
-    np.testing.assert_allclose(scaled[1], 4 * first[1], rtol=1e-7, atol=1e-6)
+    np.testing.assert_allclose(scaled[1], 4 * first[1], rtol=1e-7, atol=1e-6)  # NaN at ends
 
 
 @pytest.mark.parametrize(
