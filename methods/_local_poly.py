@@ -137,11 +137,13 @@ def savitzky_golay_filter(
 def window_samples(window_s: float, degree: int, dt: float) -> int:
     """Sample count ``2m + 1`` of a window spanning ``window_s = 2m * dt`` seconds that can hold
     a polynomial of ``degree``; ``ValueError`` naming ``window_s`` or ``degree`` otherwise."""
-    samples = samples_in_span("window_s", window_s, dt, odd=True) + 1
+    samples = samples_in_span("window_s", window_s, dt, odd=True, least=degree) + 1
     if degree >= samples:
+        shortest = 2 * math.ceil(degree / 2) * dt
         raise ValueError(
             f"`degree`={degree} must be below the window's {samples} samples "
-            f"(window_s={window_s!r} s at dt={dt!r} s)"
+            f"(window_s={window_s!r} s at dt={dt!r} s): lower it, or make `window_s` at "
+            f"least {shortest:.10g} s"
         )
     return samples
 

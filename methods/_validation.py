@@ -110,13 +110,16 @@ def check_orders(orders: Iterable[int]) -> tuple[int, ...]:
     return tuple(sorted(set(result)))
 
 
-def samples_in_span(name: str, span_s: float, dt: float, *, odd: bool = False) -> int:
+def samples_in_span(
+    name: str, span_s: float, dt: float, *, odd: bool = False, least: int = 1
+) -> int:
     """Number of sampling intervals in ``span_s`` seconds; it must be a whole number.
 
     A span of ``k`` intervals covers ``k + 1`` samples (node convention: the outer samples lie
     on the ends of the window). With ``odd=True`` the sample count must be odd (``k`` even), as
     a central window needs. ``span_s / dt`` is accepted as whole within 1e-9 relative. At most
-    :data:`MAX_WINDOW_STEPS` intervals.
+    :data:`MAX_WINDOW_STEPS` intervals. The spans an error suggests hold at least ``least``
+    intervals (the caller's own minimum, e.g. a polynomial's degree), so that each works.
     """
     ratio = span_s / dt
     if ratio > MAX_WINDOW_STEPS + 0.5:
@@ -128,13 +131,16 @@ def samples_in_span(name: str, span_s: float, dt: float, *, odd: bool = False) -
     intervals = round(ratio)
     if intervals < 1 or abs(ratio - intervals) > 1e-9 * max(1.0, abs(ratio)):
         step = 2 if odd else 1
-        nearest = max(step, step * round(ratio / step))
+        fewest = step * math.ceil(max(least, 1) / step)
+        nearest = max(fewest, step * round(ratio / step))
         raise ValueError(
             f"`{name}`={span_s!r} s is {ratio:.6g} sampling steps of dt={dt!r} s; it must be a "
             f"whole number of steps{', an even one' if odd else ''}, e.g. {nearest * dt:.10g}"
         )
     if odd and intervals % 2:
-        neighbours = " or ".join(f"{k * dt:.10g}" for k in (intervals - 1, intervals + 1) if k)
+        fewest = 2 * math.ceil(max(least, 1) / 2)
+        candidates = sorted({max(fewest, intervals - 1), max(fewest, intervals + 1)})
+        neighbours = " or ".join(f"{k * dt:.10g}" for k in candidates)
         raise ValueError(
             f"`{name}`={span_s!r} s spans {intervals} steps of dt={dt!r} s, i.e. {intervals + 1} "
             f"samples; a central window needs an odd sample count: use {neighbours}"

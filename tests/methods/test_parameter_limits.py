@@ -360,3 +360,24 @@ def test_every_preset_still_works_at_the_steps_it_is_used_at(name):
             assert all(
                 np.isfinite(estimate[order][estimate.valid[order]]).all() for order in ORDERS
             )
+
+
+@pytest.mark.parametrize("name", ["savitzky_golay", "sindy_smoothing"])
+@pytest.mark.parametrize("window_s", [0.05, 0.15, 0.2, 0.3, 0.7])
+@pytest.mark.parametrize("degree", [2, 3, 5])
+def test_windows_a_refusal_suggests_are_admissible(name, window_s, degree):
+    """A window that is not a whole even number of steps, or too short for the degree, is
+    refused with suggestions; every window suggested works with the same degree (at dt = 0.1
+    s, 0.2 s used to be suggested for a cubic: 3 samples)."""
+    dt = 0.1
+    try:
+        methods.get(name, window_s=window_s, degree=degree)(np.zeros(200), dt)
+    except ValueError as error:
+        message = str(error)
+        suggested = re.search(r"(?:e\.g\.|use|at least) ([\d.]+(?: or [\d.]+)?)", message)
+        assert suggested, message
+        for value in suggested.group(1).split(" or "):
+            estimate = methods.get(name, window_s=float(value), degree=degree)(np.zeros(200), dt)
+            assert estimate.valid[1].any(), (message, value)
+    else:
+        assert degree < round(window_s / dt) + 1  # it fits: nothing to suggest
