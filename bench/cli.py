@@ -249,6 +249,41 @@ def build_parser() -> argparse.ArgumentParser:
     )
     timing.set_defaults(handler=_cmd_timing)
 
+    advice = commands.add_parser(
+        "recommend",
+        parents=[plug],
+        help="which method, with which settings, for your own record (CSV or Parquet)",
+    )
+    advice.add_argument("file", type=Path, help="a .csv or .parquet file, one column per channel")
+    advice.add_argument(
+        "--column",
+        dest="columns",
+        type=_name_list,
+        default=None,
+        help="comma-separated channel columns (default: every column but the time)",
+    )
+    advice.add_argument("--time", default=None, help="the time column (seconds)")
+    advice.add_argument("--dt", type=float, default=None, help="the sampling step (seconds)")
+    advice.add_argument(
+        "--methods",
+        type=_name_list,
+        default=["native"],
+        help="method names or groups (all, native, peers; default: native)",
+    )
+    advice.add_argument(
+        "--orders", type=_orders, default=[1, 2], help="derivatives to recommend for (1,2)"
+    )
+    advice.add_argument(
+        "--budget", type=_positive_int, default=None, help="most evaluations per tuning"
+    )
+    advice.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="where the ranking, derivatives and figure go (default: recommend-FILESTEM/)",
+    )
+    advice.set_defaults(handler=_cmd_recommend)
+
     report = commands.add_parser(
         "report", parents=[out, plug], help="render a task's report again from the store"
     )
@@ -526,6 +561,24 @@ def _cmd_paper_figures(args) -> None:
     written += paper.write_figure3(directory) + paper.write_frequency_table(directory)
     written += paper.write_error_profile(directory, seeds=args.seeds)
     for path in written:
+        print(path)
+
+
+def _cmd_recommend(args) -> None:
+    from diffbench.bench import recommend, user_data
+
+    names = _method_names(args.methods)
+    with user_input():
+        record = user_data.read_record(args.file, args.columns, args.time, args.dt)
+    results = recommend.recommend_record(
+        record, names, tuple(args.orders), max_evaluations=args.budget
+    )
+    out = args.out if args.out is not None else Path(f"recommend-{args.file.stem}")
+    for channel, (advice, _) in results.items():
+        for order in args.orders:
+            name, params = advice.best(order)
+            print(f"{channel} {'ẋẍ'[order - 1]}: {name} {params}")
+    for path in recommend.write_recommendation(record, results, out):
         print(path)
 
 

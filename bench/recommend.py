@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -120,3 +121,130 @@ def _tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed) -> di
         "coverage": float(np.mean(coverage)) if coverage else math.nan,
         "seconds": time.perf_counter() - start,
     }
+
+
+def recommend_record(record, names=None, orders=(1, 2), seed=0, max_evaluations=None):
+    """:func:`recommend` for each channel of a :class:`~diffbench.bench.user_data.UserRecord`,
+    and the best method's estimates on the record itself (at its time stamps when it has
+    irregular ones; the recommendation then runs on the record resampled to its nominal step
+    by a cubic spline). Returns ``{channel: (Recommendation, {order: Estimate})}``."""
+    from scipy.interpolate import CubicSpline
+
+    results = {}
+    for index, channel in enumerate(record.channels):
+        x = record.x[:, index]
+        if record.t is not None and not record.uniform:
+            grid = (
+                record.t[0]
+                + np.arange(round((record.t[-1] - record.t[0]) / record.dt_s) + 1) * record.dt_s
+            )
+            uniform_x = CubicSpline(record.t, x)(grid[grid <= record.t[-1]])
+        else:
+            uniform_x = x
+        recommendation = recommend(uniform_x, record.dt_s, names, tuple(orders), seed,
+                                   max_evaluations)  # fmt: skip
+        estimates = {}
+        for order in orders:
+            name, params = recommendation.best(order)
+            method = methods.get(name, **params)
+            if record.t is not None and not record.uniform:
+                estimates[order] = method(x, record.dt_s, (0, order), t=record.t)
+            else:
+                estimates[order] = method(x, record.dt_s, (0, order))
+        results[channel] = (recommendation, estimates)
+    return results
+
+
+def write_recommendation(record, results, out: Path) -> list[Path]:
+    """``ranking.md``/``.csv`` (every method per channel and order, best first),
+    ``derivatives.csv`` (the record's time, and per channel its samples and the best
+    method's smoothed signal, ẋ and ẍ, empty where masked) and ``recommend.png`` (per
+    channel: the samples and the smoothed signal, ẋ, and the periodogram with the noise floor
+    and band) in ``out``."""
+    from diffbench.bench.tables import markdown_table
+
+    out.mkdir(parents=True, exist_ok=True)
+    frames, header = [], [f"# Recommendation for {record.source}", ""]
+    for channel, (recommendation, _) in results.items():
+        spectrum = recommendation.spectrum
+        header.append(
+            f"- `{channel}`: white-noise std {spectrum.noise_std:.4g}, signal band up to "
+            f"{spectrum.band_hz:.4g} Hz (from the record's periodogram)"
+        )
+        frame = recommendation.table.copy()
+        frame.insert(0, "channel", channel)
+        frames.append(frame)
+    table = pd.concat(frames, ignore_index=True)
+    table.to_csv(out / "ranking.csv", index=False)
+    shown = pd.DataFrame({
+        "channel": table["channel"],
+        "n": table["order"].map({1: "ẋ", 2: "ẍ"}),
+        "rank": [f"{r:.0f}" if np.isfinite(r) else "—" for r in table["rank"]],
+        "method": table["method"],
+        "settings": [_settings(p) for p in table["params"]],
+        "predicted RMSE": [
+            f"{m:.4g} ± {s:.2g}" if np.isfinite(m) else "—"
+            for m, s in zip(table["predicted_rmse"], table["spread"], strict=True)
+        ],
+        "coverage": [f"{c:.3f}" if np.isfinite(c) else "—" for c in table["coverage"]],
+        "package": table["package"],
+    })  # fmt: skip
+    note = (
+        "Each method tuned on surrogate records with the record's spectrum and a known truth "
+        f"({TUNING_SURROGATES}), scored on {SCORING_SURROGATES} others: the predicted RMSE "
+        "is their mean ± standard deviation, on all but the first and last 5 % of the record."
+    )
+    (out / "ranking.md").write_text("\n".join(header) + "\n\n" + markdown_table(shown)
+                                    + "\n\n" + note + "\n")  # fmt: skip
+    time = record.t if record.t is not None else np.arange(record.x.shape[0]) * record.dt_s
+    columns = {"time_s": time}
+    for index, (channel, (_, estimates)) in enumerate(results.items()):
+        columns[channel] = record.x[:, index]
+        first = estimates[min(estimates)]
+        columns[f"{channel}_smoothed"] = first[0]
+        for order, estimate in estimates.items():
+            columns[f"{channel}_d{order}"] = estimate[order]
+    pd.DataFrame(columns).to_csv(out / "derivatives.csv", index=False)  # exact round trip
+    _figure(record, results, time, out / "recommend.png")
+    return [out / "ranking.md", out / "ranking.csv", out / "derivatives.csv",
+            out / "recommend.png"]  # fmt: skip
+
+
+def _settings(params) -> str:
+    if not isinstance(params, dict):
+        return str(params)
+    return ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
+                     for k, v in params.items())  # fmt: skip
+
+
+def _figure(record, results, time, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = len(results)
+    figure, axes = plt.subplots(rows, 3, figsize=(15, 3.6 * rows), squeeze=False)
+    for row, (channel, (recommendation, estimates)) in enumerate(results.items()):
+        index = record.channels.index(channel)
+        first = estimates[min(estimates)]
+        axes[row, 0].plot(time, record.x[:, index], ".", markersize=2, label="samples")
+        axes[row, 0].plot(time, first[0], label="smoothed")
+        axes[row, 0].set(xlabel="t [s]", ylabel=channel, title=f"{channel}: data")
+        axes[row, 0].legend()
+        for order, estimate in estimates.items():
+            name, _ = recommendation.best(order)
+            axes[row, 1].plot(time, estimate[order], label=f"{'ẋẍ'[order - 1]}: {name}")
+        axes[row, 1].set(xlabel="t [s]", title="derivatives (recommended methods)")
+        axes[row, 1].legend()
+        spectrum = recommendation.spectrum
+        axes[row, 2].loglog(spectrum.frequency_hz[1:], spectrum.power[1:], linewidth=0.7)
+        axes[row, 2].axhline(spectrum.noise_floor, color="k", linestyle="--",
+                             label=f"noise floor (std {spectrum.noise_std:.3g})")  # fmt: skip
+        axes[row, 2].axvline(spectrum.band_hz, color="r",
+                             label=f"band {spectrum.band_hz:.3g} Hz")  # fmt: skip
+        axes[row, 2].set(xlabel="f [Hz]", ylabel="periodogram", title="spectrum")
+        axes[row, 2].legend()
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
