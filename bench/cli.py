@@ -284,6 +284,25 @@ def build_parser() -> argparse.ArgumentParser:
     )
     advice.set_defaults(handler=_cmd_recommend)
 
+    check = commands.add_parser(
+        "recommend-check",
+        parents=[out, plug],
+        help="score `recommend` against the truth on the signal scenarios (as if unknown)",
+    )
+    check.add_argument(
+        "--scenarios",
+        type=_name_list,
+        default=None,
+        help="comma-separated scenario names (default: every uniformly sampled noisy one)",
+    )
+    check.add_argument(
+        "--methods",
+        type=_name_list,
+        default=None,
+        help="methods to recommend among (default: the six that tune in seconds)",
+    )
+    check.set_defaults(handler=_cmd_recommend_check)
+
     report = commands.add_parser(
         "report", parents=[out, plug], help="render a task's report again from the store"
     )
@@ -579,6 +598,43 @@ def _cmd_recommend(args) -> None:
             name, params = advice.best(order)
             print(f"{channel} {'ẋẍ'[order - 1]}: {name} {params}")
     for path in recommend.write_recommendation(record, results, out):
+        print(path)
+
+
+def _cmd_recommend_check(args) -> None:
+    import json
+
+    from diffbench import signals
+    from diffbench.bench import recommend
+
+    names = _method_names(args.methods) or list(recommend.VALIDATION_METHODS)
+    scenarios = args.scenarios or [
+        name
+        for name in signals.available_scenarios()
+        if not name.endswith(("-clean", "-jitter", "-dropout"))
+    ]
+    with user_input("--scenarios: "):
+        for name in scenarios:
+            signals.get_scenario(name)
+    directory = args.out / "recommend-validation"
+    directory.mkdir(parents=True, exist_ok=True)
+    # finished scenarios are kept row by row: a run stopped part way resumes where it stopped
+    done_path = directory / "rows.jsonl"
+    done = []
+    if done_path.exists():
+        done = [json.loads(line) for line in done_path.read_text().splitlines() if line]
+    key = ",".join(names)
+    finished = {row["scenario"] for row in done if row.get("methods") == key}
+    rows = [row for row in done if row.get("methods") == key and row["scenario"] in scenarios]
+    for name in scenarios:
+        if name in finished:
+            continue
+        new = [{**row, "methods": key} for row in recommend.validate(name, names)]
+        with done_path.open("a") as stream:
+            stream.writelines(json.dumps(row) + "\n" for row in new)
+        rows += new
+        print(f"{name}: " + ", ".join(f"{r['ratio']:.3g}" for r in new), flush=True)
+    for path in recommend.write_validation(rows, directory, names):
         print(path)
 
 
