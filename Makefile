@@ -47,7 +47,6 @@ bench: $(STAMP)
 	$(BIN)/diffbench run robot-sim --seeds $(SEEDS) --jobs 2 --out results
 	$(BIN)/diffbench run dfki-cv --methods native,$(GRID_PEERS) --jobs 2 --out results
 	$(BIN)/diffbench grid --methods native,$(GRID_PEERS) --seeds 10 --jobs 2 --out results
-	$(BIN)/diffbench recommend-check --out results
 	$(BIN)/diffbench timing --out results
 
 lint: $(STAMP)

@@ -58,7 +58,8 @@ def surrogate_records(
             f"`spectrum` is that of a record of {2 * (spectrum.frequency_hz.size - 1)} or so "
             f"samples, not of {n_samples}"
         )
-    fine = np.fft.rfftfreq(LENGTH_FACTOR * n_samples, dt)[1:]  # no constant: detrended
+    long = LENGTH_FACTOR * n_samples
+    fine = np.fft.rfftfreq(long, dt)
     in_band = spectrum.frequency_hz <= spectrum.band_hz
     signal_power = np.where(
         in_band, np.maximum(spectrum.sharp_power - spectrum.noise_floor, 0.0), 0.0
@@ -68,11 +69,10 @@ def surrogate_records(
     noise_power = np.where(in_band, spectrum.noise_floor, spectrum.power)
     # on the finer grid each bin holds 1/LENGTH_FACTOR of the variance of the record's bin
     fine_signal = np.interp(fine, spectrum.frequency_hz, signal_power) / LENGTH_FACTOR
-    weights = np.where(np.isclose(fine, 0.5 / dt), 1.0, 2.0)
-    amplitude = np.sqrt(2 * weights * fine_signal / n_samples)
-    keep = amplitude > 0
-    frequency = np.concatenate([fine[keep], line_hz])
-    amplitude = np.concatenate([amplitude[keep], line_amplitude])
+    fine_signal[0] = fine_signal[-1] = 0.0  # no constant (detrended), no Nyquist term
+    amplitude = 2 * np.sqrt(fine_signal / n_samples)  # a_k = sqrt(2 w_k S_k / N), w_k = 2
+    omega = 2 * np.pi * fine
+    line_omega = 2 * np.pi * line_hz
     t = np.arange(n_samples) * dt
     interior = np.zeros(n_samples, dtype=bool)
     margin = int(END_FRACTION * n_samples)
@@ -80,18 +80,19 @@ def surrogate_records(
     rng = np.random.default_rng([7, seed])
     realisations = []
     for index in range(count):
-        phase = rng.uniform(0.0, 2 * np.pi, frequency.size)
-        start = rng.uniform(0.0, (LENGTH_FACTOR - 1) * n_samples * dt)
-        argument = 2 * np.pi * np.outer(t + start, frequency) + phase
-        omega = 2 * np.pi * frequency
-        truth = signals.Truth(
-            t=t,
-            derivatives=(
-                np.cos(argument) @ amplitude,
-                -np.sin(argument) @ (amplitude * omega),
-                -np.cos(argument) @ (amplitude * omega**2),
-            ),
-        )
+        # the continuum by inverse FFT on the long grid (its derivatives: (iω)^n times each
+        # term), a window of the record's length taken at random; the lines summed directly
+        phase = np.exp(1j * rng.uniform(0.0, 2 * np.pi, fine.size))
+        start = int(rng.integers(0, long - n_samples + 1))
+        line_phase = rng.uniform(0.0, 2 * np.pi, line_hz.size)
+        argument = np.outer(t + start * dt, line_omega) + line_phase
+        derivatives = []
+        for order in range(3):
+            terms = (long / 2) * amplitude * phase * (1j * omega) ** order
+            continuum = np.fft.irfft(terms, long)[start : start + n_samples]
+            lines = np.real((1j * line_omega) ** order * np.exp(1j * argument)) @ line_amplitude
+            derivatives.append(continuum + lines)
+        truth = signals.Truth(t=t, derivatives=tuple(derivatives))
         noise = _coloured_noise(noise_power, n_samples, rng)
         realisations.append(
             signals.Realisation(
