@@ -611,7 +611,7 @@ def _cmd_recommend_check(args) -> None:
     scenarios = args.scenarios or [
         name
         for name in signals.available_scenarios()
-        if not name.endswith(("-clean", "-jitter", "-dropout"))
+        if not (scenario := signals.get_scenario(name)).sampling and scenario.noise.models
     ]
     with user_input("--scenarios: "):
         for name in scenarios:

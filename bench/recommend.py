@@ -126,31 +126,23 @@ def _tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed) -> di
 def recommend_record(record, names=None, orders=(1, 2), seed=0, max_evaluations=None):
     """:func:`recommend` for each channel of a :class:`~diffbench.bench.user_data.UserRecord`,
     and the best method's estimates on the record itself (at its time stamps when it has
-    irregular ones; the recommendation then runs on the record resampled to its nominal step
-    by a cubic spline). Returns ``{channel: (Recommendation, {order: Estimate})}``."""
-    from scipy.interpolate import CubicSpline
-
+    irregular ones; the recommendation then runs on the record resampled, as a resampled
+    method's is, onto the grid of its span with the step nearest its nominal one). Returns
+    ``{channel: (Recommendation, {order: Estimate})}``."""
+    irregular = record.t is not None and not record.uniform
+    if irregular:  # onto the grid a resampled method would use (methods._time_stamps)
+        grid, grid_step = methods.uniform_grid(record.t, record.dt_s)
+        on_grid = methods.to_grid(record.x, record.t, grid)
     results = {}
     for index, channel in enumerate(record.channels):
         x = record.x[:, index]
-        if record.t is not None and not record.uniform:
-            grid = (
-                record.t[0]
-                + np.arange(round((record.t[-1] - record.t[0]) / record.dt_s) + 1) * record.dt_s
-            )
-            uniform_x = CubicSpline(record.t, x)(grid[grid <= record.t[-1]])
-        else:
-            uniform_x = x
-        recommendation = recommend(uniform_x, record.dt_s, names, tuple(orders), seed,
-                                   max_evaluations)  # fmt: skip
+        uniform_x, step = (on_grid[:, index], grid_step) if irregular else (x, record.dt_s)
+        recommendation = recommend(uniform_x, step, names, tuple(orders), seed, max_evaluations)
         estimates = {}
         for order in orders:
             name, params = recommendation.best(order)
-            method = methods.get(name, **params)
-            if record.t is not None and not record.uniform:
-                estimates[order] = method(x, record.dt_s, (0, order), t=record.t)
-            else:
-                estimates[order] = method(x, record.dt_s, (0, order))
+            stamps = record.t if irregular else None
+            estimates[order] = methods.get(name, **params)(x, record.dt_s, (0, order), t=stamps)
         results[channel] = (recommendation, estimates)
     return results
 

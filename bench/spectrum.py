@@ -82,9 +82,14 @@ def periodogram(x: np.ndarray, dt: float, taper: str = "nuttall") -> tuple[np.nd
     scipy window name (``"nuttall"``: sidelobes 93 dB down, main lobe ±4 bins; ``"hann"``: 31
     dB, ±2 bins)."""
     samples = np.asarray(x, dtype=np.float64)
-    taper = sps.windows.get_window(taper, samples.size, fftbins=True)
-    spectrum = np.fft.rfft(sps.detrend(samples, type="linear") * taper)
-    return np.fft.rfftfreq(samples.size, dt), np.abs(spectrum) ** 2 / np.sum(taper**2)
+    weights = window(taper, samples.size)
+    spectrum = np.fft.rfft(sps.detrend(samples, type="linear") * weights)
+    return np.fft.rfftfreq(samples.size, dt), np.abs(spectrum) ** 2 / np.sum(weights**2)
+
+
+def window(taper: str, n_samples: int) -> np.ndarray:
+    """The periodic (DFT-even) taper ``taper`` of ``n_samples`` points the periodograms use."""
+    return sps.windows.get_window(taper, n_samples, fftbins=True)
 
 
 def smoothing_bins(n_bins: int) -> int:

@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from diffbench import signals
-from diffbench.bench.spectrum import RecordSpectrum
+from diffbench.bench.spectrum import RecordSpectrum, window
 
 LENGTH_FACTOR = 3
 """The surrogate's frequency grid is this many times finer than the record's."""
@@ -121,7 +121,7 @@ def spectral_lines(
     (taken out of the continuous part of the signal spectrum).
     """
     power, frequency = spectrum.sharp_power, spectrum.frequency_hz
-    taper = np.hanning(n_samples + 1)[:-1]  # scipy's periodic Hann
+    taper = window("hann", n_samples)  # the sharp periodogram's taper
     coherent = np.sum(taper) ** 2 / np.sum(taper**2)
     lobes = np.zeros(power.size, dtype=bool)
     found_hz, found_amplitude = [], []

@@ -38,6 +38,7 @@ from scipy import integrate, optimize
 
 from diffbench import methods
 from diffbench.bench.scores import estimate_on, is_uniform
+from diffbench.bench.spectrum import periodogram
 
 CRITERIA = ("oracle", "no-truth", "pynumdiff")
 
@@ -136,14 +137,8 @@ class NoiseSplit:
 
     @classmethod
     def of(cls, x: np.ndarray, dt: float, cutoff_hz: float) -> NoiseSplit:
-        from scipy import signal as sps
-
-        samples = np.asarray(x, dtype=float)
-        n = samples.size
-        taper = sps.windows.hann(n, sym=False)
-        spectrum = np.fft.rfft(sps.detrend(samples, type="linear") * taper)
-        power = np.abs(spectrum) ** 2 / np.sum(taper**2)
-        frequency = np.fft.rfftfreq(n, dt)
+        n = np.asarray(x).size
+        frequency, power = periodogram(x, dt, "hann")
         above = frequency > cutoff_hz
         if not above.any() or above.all():
             raise ValueError(f"`cutoff_hz`={cutoff_hz} must lie inside (0, {0.5 / dt:g}) Hz")

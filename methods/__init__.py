@@ -54,6 +54,7 @@ from diffbench.methods._registry import (
     preset_spec,
     register,
 )
+from diffbench.methods._time_stamps import to_grid, uniform_grid
 from diffbench.methods._validation import (
     MAX_ORDER,
     MAX_WINDOW_STEPS,
@@ -108,6 +109,8 @@ __all__ = [
     "sindy",
     "smoothing_spline",
     "spectral",
+    "to_grid",
     "total_variation",
+    "uniform_grid",
     "uniform_step",
 ]
