@@ -68,14 +68,38 @@ def band_edge_hz(central_response, order: int, dt: float) -> float:
     return float(frequencies[max(last, 0)])
 
 
-def trusted_samples(method, n_samples: int, dt: float, orders: tuple[int, ...]) -> dict:
+def trusted_samples(
+    method,
+    n_samples: int,
+    dt: float,
+    orders: tuple[int, ...],
+    factor: float = END_ERROR_FACTOR,
+    short_record_best: bool = False,
+) -> dict:
     """Boolean masks (one per order) of the samples whose estimate is trusted (see the module
-    docstring). ``method`` is linear and declares ``end_reach(dt)``; cached."""
-    return _trusted(method, int(n_samples), float(dt), tuple(orders))
+    docstring). ``method`` is linear and declares ``end_reach(dt)``; cached.
+
+    ``factor`` is the criterion's c. With ``short_record_best``, a record shorter than
+    ``2 reach + 1`` samples (where no sample reaches the interior response) is judged against
+    its own best sample instead: the reference error is the larger of the interior's and the
+    least of the probed samples', so the best part of the record stays valid. It is for
+    settings chosen by the data (``gaussian_process_ml``, whose likelihood picks a length
+    scale near the span of a smooth short record); given settings are refused there instead.
+    """
+    return _trusted(
+        method, int(n_samples), float(dt), tuple(orders), float(factor), bool(short_record_best)
+    )
 
 
 @functools.lru_cache(maxsize=512)
-def _trusted(method, n_samples: int, dt: float, orders: tuple[int, ...]) -> dict:
+def _trusted(
+    method,
+    n_samples: int,
+    dt: float,
+    orders: tuple[int, ...],
+    factor: float,
+    short_record_best: bool,
+) -> dict:
     reach = method.end_reach(dt)
     length = min(n_samples, max(2 * reach + 1, method.min_samples(dt)))
     edges = {
@@ -95,8 +119,10 @@ def _trusted(method, n_samples: int, dt: float, orders: tuple[int, ...]) -> dict
         with np.errstate(invalid="ignore"):
             error = np.max(np.abs(response - ideal[None, :]), axis=1)
         interior = np.max(np.abs(method._response(frequencies, dt, order) - ideal))
+        if short_record_best and length < 2 * reach + 1 and np.isfinite(error).any():
+            interior = max(interior, float(np.nanmin(error)))
         floor = 1e-9 * np.max(np.abs(ideal))
-        good = error <= END_ERROR_FACTOR * interior + floor  # NaN (masked) compares False
+        good = error <= factor * interior + floor  # NaN (masked) compares False
         ends = min(reach, length // 2)
         mask = np.ones(n_samples, dtype=bool)
         mask[:ends] = _from_last_failure(good[:ends])
