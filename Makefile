@@ -18,7 +18,7 @@ $(STAMP): pyproject.toml
 # Every step resumes from the store (results/store/): a second `make bench` recomputes and
 # re-tunes nothing, and only rewrites the reports (and the timing table).
 # The peers are tuned by the oracle only (the data-only criteria are for picking a setting of
-# ours); the grid and dfki-cv (5000-sample records) hold the native methods and the fast peers
+# ours); the grid and identify-dfki (5000-sample records) hold the native methods and the fast peers
 # (tvrdiff, rbfdiff, polydiff, rtsdiff, the splines and derivative's dense ones cost seconds a call).
 # On the paper signals, the native methods and the fast peers are also tuned on 10 seeds (400
 # evaluations per run), on the interior and on the whole record (edge treatments tuned too).
@@ -45,7 +45,7 @@ bench: $(STAMP)
 	$(BIN)/diffbench run jacobi-influence --seeds $(SEEDS) --out results
 	$(BIN)/diffbench paper-figures --out results
 	$(BIN)/diffbench run robot-sim --seeds $(SEEDS) --jobs 2 --out results
-	$(BIN)/diffbench run dfki-cv --methods native,$(GRID_PEERS) --jobs 2 --out results
+	$(BIN)/diffbench run identify-dfki --methods native,$(GRID_PEERS) --jobs 2 --out results
 	$(BIN)/diffbench grid --methods native,$(GRID_PEERS) --seeds 10 --jobs 2 --out results
 	$(BIN)/diffbench timing --out results
 

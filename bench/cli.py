@@ -18,11 +18,11 @@ from importlib import metadata
 from pathlib import Path
 
 from diffbench import methods
-from diffbench.bench import runner
+from diffbench.bench import executor, runner
 from diffbench.bench.executor import Terminated, terminate_on_sigterm
 from diffbench.bench.provenance import provenance
 from diffbench.bench.store import Store, set_command
-from diffbench.bench.tasks import available_tasks, get_task
+from diffbench.bench.tasks import available_tasks, dfki_task, get_task
 
 EXIT_INTERNAL = 1
 EXIT_USAGE = 2
@@ -165,6 +165,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="run every method at its preset on a task, write its report",
     )
     run.add_argument("task", help="task name (see `diffbench list`)")
+    run.add_argument(*RECORDS_FLAG, **RECORDS_OPTIONS)
     run.set_defaults(handler=_cmd_run)
 
     tune = commands.add_parser(
@@ -307,6 +308,7 @@ def build_parser() -> argparse.ArgumentParser:
         "report", parents=[out, plug], help="render a task's report again from the store"
     )
     report.add_argument("task")
+    report.add_argument(*RECORDS_FLAG, **RECORDS_OPTIONS)
     report.set_defaults(handler=_cmd_report)
     return parser
 
@@ -452,8 +454,31 @@ def _report(task, store: Store, out: Path) -> list[Path]:
     return written
 
 
+RECORDS_FLAG = ("--records",)
+RECORDS_OPTIONS = {
+    "nargs": "+",
+    "type": Path,
+    "metavar": "CSV",
+    "help": "identify-dfki only: recordings in the DFKI lab's CSV layout (time, pos_meas1/2, "
+    "tau_meas1/2, tau_con1/2; .csv or .csv.gz), at least 3, instead of the six packaged runs",
+}
+
+
+def _task_of(args):
+    """The task ``args.task``, on ``args.records`` when given (identify-dfki only)."""
+    records = getattr(args, "records", None)
+    if not records:
+        return _task(args.task)
+    if args.task != "identify-dfki":
+        raise UsageError(f"--records is for identify-dfki only, not {args.task!r}")
+    if getattr(args, "jobs", 1) > 1 and not executor.forks():
+        args.jobs = 1  # workers started afresh would not know a task registered here
+    with user_input("--records: "):
+        return dfki_task(records)
+
+
 def _cmd_run(args) -> None:
-    task = _task(args.task)
+    task = _task_of(args)
     names = _method_names(args.methods)
     with user_input():
         seeds = task.seeds(args.seeds)
@@ -466,7 +491,7 @@ def _cmd_run(args) -> None:
 
 
 def _cmd_report(args) -> None:
-    task = _task(args.task)
+    task = _task_of(args)
     if not (args.out / "store" / "cells.jsonl").exists():
         raise UsageError(
             f"no results store in {args.out / 'store'}; run "

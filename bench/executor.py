@@ -49,9 +49,14 @@ def _worker_start(parent: int) -> None:
     threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
 
 
+def forks() -> bool:
+    """Whether worker processes are forked (they then inherit what this process registered:
+    tasks, plugins); else they start afresh (spawn)."""
+    return "fork" in multiprocessing.get_all_start_methods()
+
+
 def _context():
-    methods = multiprocessing.get_all_start_methods()
-    return multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+    return multiprocessing.get_context("fork" if forks() else "spawn")
 
 
 def ordered_map(function: Callable[[Any], Any], items: Sequence[Any], jobs: int = 1) -> Iterator:

@@ -75,7 +75,7 @@ def compute_cell(cell: Cell) -> list[dict[str, Any]]:
     from diffbench.bench.tasks import get_task
 
     method = methods.get(cell.method, **cell.params)
-    return get_task(cell.task).score(method, cell.seed)
+    return get_task(cell.task).score_cell(method, cell.seed, cell.role)
 
 
 def _timed(cell: Cell) -> tuple[list[dict[str, Any]], float]:

@@ -16,12 +16,14 @@ Adding a kind of benchmark is one subclass and one :func:`register_task` call.
 from __future__ import annotations
 
 import functools
+import hashlib
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import ClassVar
 
+import numpy as np
 import pandas as pd
 
 from diffbench import methods, signals
@@ -84,6 +86,11 @@ class Task:
 
     def score(self, method: methods.Method, seed: int) -> list[dict]:
         raise NotImplementedError
+
+    def score_cell(self, method: methods.Method, seed: int, role: Role) -> list[dict]:
+        """The rows of a cell: :meth:`score`, unless the role changes what is computed (a task
+        whose variants are procedures, not parameters, overrides this)."""
+        return self.score(method, seed)
 
     def report(self, cells: pd.DataFrame, tunings: pd.DataFrame, directory: Path) -> list[Path]:
         raise NotImplementedError
@@ -213,23 +220,45 @@ class RobotSimTask(ScenarioTask):
 
 @dataclass(frozen=True, eq=False)
 class DfkiTask(Task):
-    """The real DFKI double pendulum: leave-one-run-out identification over its six runs (a
-    cell's seed is the held-out run), scored by the measured torque of the held-out run."""
+    """Real recordings of the DFKI double pendulum: leave-one-run-out identification (a cell's
+    seed is the held-out run), scored by the measured torque of the held-out run at its logged
+    time stamps; each method at its preset and at the settings nested cross-validation
+    chooses (:class:`diffbench.bench.robot.DfkiCrossValidation`)."""
 
+    records: tuple | None = None
     listed: bool = True
     kind: ClassVar[str] = "robot (real)"
-    default_seeds: ClassVar[int] = 6
-    max_seeds: ClassVar[int] = 6
 
     @property
     def spec(self):
         from diffbench.bench.robot import DfkiCrossValidation
 
-        return DfkiCrossValidation()
+        if self.records is None:
+            return DfkiCrossValidation()
+        return DfkiCrossValidation(records=tuple(self.records))
 
     @property
+    def default_seeds(self) -> int:  # type: ignore[override]
+        return len(self.spec.records)
+
+    @property
+    def max_seeds(self) -> int:  # type: ignore[override]
+        return len(self.spec.records)
+
+    @functools.cached_property
     def name(self) -> str:
-        return self.spec.name
+        """``identify-dfki`` on the packaged runs; with other records, that name and a digest
+        of their contents (the store never mixes cells of different data under one name)."""
+        if self.records is None:
+            return self.spec.name
+        from diffbench.bench.robot import dfki_record
+
+        digest = hashlib.sha256()
+        for source in self.spec.records:
+            record = dfki_record(source)
+            for array in (record.t, record.q, record.tau, record.tau_commanded):
+                digest.update(np.ascontiguousarray(array).tobytes())
+        return f"{self.spec.name}-{digest.hexdigest()[:10]}"
 
     @property
     def description(self) -> str:
@@ -239,20 +268,52 @@ class DfkiTask(Task):
     def preset(self) -> str:
         return self.spec.preset
 
+    def lineup(self, method_names=None):
+        from diffbench.bench.robot import NESTED_VARIANT
+
+        entries = []
+        for entry in super().lineup(method_names):
+            entries.append(entry)
+            nested = Role(origin="variant", preset=entry.role.preset, by=entry.role.by,
+                          variant=NESTED_VARIANT)  # fmt: skip
+            entries.append(Entry(entry.method, entry.params, nested))
+        return entries
+
     def score(self, method, seed):
         from diffbench.bench.robot import score_dfki_fold
 
         return score_dfki_fold(method, self.spec, seed)
 
-    def longest_record(self):
-        from diffbench.bench.robot import dfki_run
-        from diffbench.signals import dfki
+    def score_cell(self, method, seed, role):
+        from diffbench.bench.robot import NESTED_VARIANT, score_dfki_fold
 
-        runs = [dfki_run(index, self.spec.dt_s) for index in range(dfki.DFKI_RUNS)]
-        return max(run.q.shape[0] for run in runs), self.spec.dt_s
+        return score_dfki_fold(method, self.spec, seed, nested=role.variant == NESTED_VARIANT)
+
+    def longest_record(self):
+        from diffbench.bench.robot import dfki_record
+
+        records = [dfki_record(source) for source in self.spec.records]
+        return max(r.t.size for r in records), self.spec.nominal_dt_s
 
     def report(self, cells, tunings, directory):
-        return reports.dfki_report(cells, directory)
+        return reports.dfki_report(cells, directory, self.spec)
+
+
+def dfki_task(records) -> Task:
+    """The DFKI identification task on ``records`` (packaged run numbers or paths of CSV files
+    in the lab's layout, at least three), registered under its name (:class:`DfkiTask`)."""
+    from diffbench.bench.robot import dfki_record
+
+    records = tuple(records)
+    if len(records) < 3:
+        raise ValueError(
+            f"give at least 3 records (each identified on the others, nested), got {len(records)}"
+        )
+    for source in records:
+        dfki_record(source)  # a bad file is refused here, naming it
+    task = DfkiTask(records=records)
+    _register_builtins()
+    return _TASKS.get(task.name) or register_task(task)
 
 
 def register_task(task: Task) -> Task:

@@ -74,20 +74,20 @@ def trusted_samples(
     dt: float,
     orders: tuple[int, ...],
     factor: float = END_ERROR_FACTOR,
-    short_record_best: bool = False,
+    short_record_middle: bool = False,
 ) -> dict:
     """Boolean masks (one per order) of the samples whose estimate is trusted (see the module
     docstring). ``method`` is linear and declares ``end_reach(dt)``; cached.
 
-    ``factor`` is the criterion's c. With ``short_record_best``, a record shorter than
+    ``factor`` is the criterion's c. With ``short_record_middle``, a record shorter than
     ``2 reach + 1`` samples (where no sample reaches the interior response) is judged against
-    its own best sample instead: the reference error is the larger of the interior's and the
-    least of the probed samples', so the best part of the record stays valid. It is for
+    its own middle instead: the reference error is the larger of the interior's and the
+    middle sample's, so the part of the record as good as its middle stays valid. It is for
     settings chosen by the data (``gaussian_process_ml``, whose likelihood picks a length
     scale near the span of a smooth short record); given settings are refused there instead.
     """
     return _trusted(
-        method, int(n_samples), float(dt), tuple(orders), float(factor), bool(short_record_best)
+        method, int(n_samples), float(dt), tuple(orders), float(factor), bool(short_record_middle)
     )
 
 
@@ -98,7 +98,7 @@ def _trusted(
     dt: float,
     orders: tuple[int, ...],
     factor: float,
-    short_record_best: bool,
+    short_record_middle: bool,
 ) -> dict:
     reach = method.end_reach(dt)
     length = min(n_samples, max(2 * reach + 1, method.min_samples(dt)))
@@ -119,8 +119,8 @@ def _trusted(
         with np.errstate(invalid="ignore"):
             error = np.max(np.abs(response - ideal[None, :]), axis=1)
         interior = np.max(np.abs(method._response(frequencies, dt, order) - ideal))
-        if short_record_best and length < 2 * reach + 1 and np.isfinite(error).any():
-            interior = max(interior, float(np.nanmin(error)))
+        if short_record_middle and length < 2 * reach + 1 and np.isfinite(error[length // 2]):
+            interior = max(interior, float(error[length // 2]))
         floor = 1e-9 * np.max(np.abs(ideal))
         good = error <= factor * interior + floor  # NaN (masked) compares False
         ends = min(reach, length // 2)

@@ -7,7 +7,8 @@ step is nearest the nominal step :math:`\\Delta` (given as ``dt`` with ``t``; el
 step), :math:`\\tau_k = t_0 + k h`, :math:`h = (t_{n-1} - t_0)/K`,
 :math:`K = \\mathrm{round}((t_{n-1} - t_0)/\\Delta)` (a jittered or gappy record whose
 ends are on the nominal grid keeps its step, and with it windows that are whole numbers of
-steps), by the not-a-knot cubic
+steps; a given nominal step is kept exactly when the span is not a whole number of them, the
+grid then ending less than a step past the last time: :func:`uniform_grid`), by the not-a-knot cubic
 spline through the measured samples (scipy's ``CubicSpline``); its estimates on that grid are
 brought back to the measured times by the cubic spline through its valid grid samples. The
 interpolation adds its own error: for a signal with bounded fourth derivative it is
@@ -22,14 +23,28 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+ON_GRID_TOLERANCE = 1e-9
+"""Relative difference from the nominal step below which the span's own step is taken (the
+record's ends lie on the nominal grid)."""
+
 
 def uniform_grid(times: np.ndarray, nominal: float | None = None) -> tuple[np.ndarray, float]:
-    """The uniform grid of the span of ``times`` (its ends exactly theirs) with the step
-    nearest ``nominal`` (default: their median step); returns (grid, step)."""
+    """The uniform grid for ``times``; returns (grid, step).
+
+    Without ``nominal``: the grid of the span of ``times`` (its ends exactly theirs) with the
+    step nearest their median step. With ``nominal``: the same when the span is a whole number
+    of nominal steps (to ``ON_GRID_TOLERANCE``); otherwise the grid of step exactly ``nominal``
+    from the first time, one point past the last (a recorder's time stamps rarely end on its
+    own grid, e.g. 9.9981 s at 500 Hz; a step of span/K would make every window given in
+    seconds miss a whole number of steps by a few parts in 1e5, and be refused): the
+    interpolating spline is extended by less than one step there."""
     span = times[-1] - times[0]
     guide = float(np.median(np.diff(times))) if nominal is None else nominal
     intervals = max(1, round(span / guide))
     step = span / intervals
+    if nominal is not None and abs(step - nominal) > ON_GRID_TOLERANCE * nominal:
+        intervals = max(1, int(np.ceil(span / nominal)))
+        return times[0] + np.arange(intervals + 1) * nominal, float(nominal)
     grid = times[0] + np.arange(intervals + 1) * step
     grid[-1] = times[-1]
     return grid, float(step)

@@ -1,10 +1,14 @@
 r"""Real 2R robot recordings: the DFKI double pendulum, its model and its base parameters.
 
 Six 10 s recordings of a real two-link robot (DFKI RIC Underactuated Robotics Lab, design C.0,
-2022-09-14, PD tracking of excitation trajectories; BSD 3-Clause, see ``data/
-dfki_double_pendulum/LICENSE`` and ``README.md`` beside the data) and the lab's own identified
-model. The real parameters are unknown, so on these runs a differentiator is judged by the torque
-a model predicts from its :math:`\dot q, \ddot q`, and by its velocity against the driver's.
+2022-09-14; BSD 3-Clause, see ``data/dfki_double_pendulum/LICENSE`` and ``README.md`` beside
+the data) and the lab's own identified model. The runs are open-loop torque excitations: the
+commanded torque (``tau_con``) is a prescribed signal on one or both joints (runs 3 and 4 drive
+joint 2 only, run 5 joint 1 only), not the output of a tracking controller. The real parameters
+are unknown, so on these runs a differentiator is judged by the torque a model predicts from its
+:math:`\dot q, \ddot q`. The recorded velocity (``vel_meas``) is no reference: it is exactly
+the backward difference of the recorded positions over the recorded time steps (checked on
+every row of the six runs), so scoring against it would reward finite differences.
 
 The robot
 ---------
@@ -194,7 +198,8 @@ class DfkiRun:
     tau_commanded : numpy.ndarray, shape (n, 2)
         Commanded joint torques in N·m.
     velocity_driver : numpy.ndarray, shape (n, 2)
-        The motor driver's own velocity estimate in rad/s (column ``vel_meas``).
+        The recorded velocity in rad/s (column ``vel_meas``): the backward difference of the
+        recorded positions (module docstring), not an independent measurement.
     max_gap_s : float
         Largest step between consecutive recorded time stamps, in seconds.
     original_samples : int
@@ -334,13 +339,31 @@ def _read_csv(run: int) -> tuple[np.ndarray, np.ndarray]:
     """Recorded time and the :data:`_COLUMNS` (as an (m, 8) array) of run ``run``."""
     with _data_file(f"trajectory_0{run}.csv.gz").open("rb") as raw, gzip.open(raw, "rt") as fh:
         text = fh.read()
+    return _parse_csv(text, f"run {run}", _COLUMNS)
+
+
+def _parse_csv(text: str, label: str, wanted: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """The ``time`` column and the ``wanted`` columns of a recording in the lab's CSV layout
+    (a header row of names, then comma-separated numbers); one-line errors naming ``label``."""
     header, _, body = text.partition("\n")
     names = [name.strip() for name in header.split(",")]
-    missing = [name for name in ("time", *_COLUMNS) if name not in names]
+    missing = [name for name in ("time", *wanted) if name not in names]
     if missing:
-        raise ValueError(f"run {run}: the CSV file lacks the columns {missing}")
-    table = np.loadtxt(io.StringIO(body), delimiter=",", dtype=np.float64, ndmin=2)
-    columns = [names.index(name) for name in _COLUMNS]
+        raise ValueError(
+            f"{label}: the CSV file lacks the columns {missing} (the lab's layout has a header "
+            "row with time, pos_meas1, pos_meas2, tau_meas1, tau_meas2, tau_con1, tau_con2)"
+        )
+    try:
+        table = np.loadtxt(io.StringIO(body), delimiter=",", dtype=np.float64, ndmin=2)
+    except ValueError as error:
+        reason = str(error).splitlines()[0] if str(error) else "unreadable"
+        raise ValueError(f"{label}: not a table of numbers below the header ({reason})") from None
+    if table.shape[1] != len(names):
+        raise ValueError(f"{label}: {table.shape[1]} numbers per row for {len(names)} columns")
+    if not np.isfinite(table).all():
+        row = int(np.flatnonzero(~np.isfinite(table).all(axis=1))[0]) + 2
+        raise ValueError(f"{label}: line {row} holds NaN or inf; drop or repair that row")
+    columns = [names.index(name) for name in wanted]
     return table[:, names.index("time")], table[:, columns]
 
 
@@ -395,6 +418,164 @@ def load_dfki_run(run: int, dt_s: float = DEFAULT_DT_S) -> DfkiRun:
         max_gap_s=float(np.max(np.diff(distinct))),
         original_samples=int(distinct.size),
     )
+
+
+RECORD_COLUMNS = ("pos_meas1", "pos_meas2", "tau_meas1", "tau_meas2", "tau_con1", "tau_con2")
+"""The columns :func:`read_dfki_record` needs besides ``time`` (others are ignored)."""
+
+MIN_RECORD_SAMPLES = 100
+"""Fewest distinct time stamps a recording must have to be identified on."""
+
+
+@dataclass(frozen=True, eq=False)
+class DfkiRecord:
+    """One DFKI double-pendulum recording at its logged time stamps (not resampled).
+
+    Parameters
+    ----------
+    name : str
+        ``"run <k>"`` for a packaged run, else the file's path.
+    t : numpy.ndarray, shape (n,)
+        Logged times in seconds, strictly increasing (rows repeating the previous time stamp
+        exactly are dropped, the first kept).
+    q, tau, tau_commanded : numpy.ndarray, shape (n, 2)
+        Joint positions (rad), measured and commanded torques (N·m), as in :class:`DfkiRun`.
+    """
+
+    name: str
+    t: np.ndarray
+    q: np.ndarray
+    tau: np.ndarray
+    tau_commanded: np.ndarray
+
+    @property
+    def active_joints(self) -> np.ndarray:
+        """Joints whose commanded torque is not identically zero (a passive joint's "measured"
+        torque is only the driver's noise)."""
+        return np.any(self.tau_commanded != 0, axis=0)
+
+
+def read_dfki_record(source) -> DfkiRecord:
+    """A recording in the lab's CSV layout at its logged time stamps.
+
+    Parameters
+    ----------
+    source : int or str or os.PathLike
+        A packaged run ``0 .. DFKI_RUNS - 1``, or the path of a CSV file (``.csv`` or
+        ``.csv.gz``) of the lab's ``double_pendulum`` repository layout: a header row naming at
+        least ``time`` and :data:`RECORD_COLUMNS` (any other columns, in any order, are
+        ignored), e.g. any ``measured.csv`` / ``trajectory_*.csv`` of its experiment records.
+
+    Returns
+    -------
+    DfkiRecord
+
+    Raises
+    ------
+    ValueError
+        One line naming the file: a missing file or column, text among the numbers, NaN or
+        inf, time stamps that decrease or repeat with other values, fewer than
+        ``MIN_RECORD_SAMPLES`` distinct time stamps.
+    """
+    from pathlib import Path
+
+    if isinstance(source, numbers.Integral) and not isinstance(source, (bool, np.bool_)):
+        run = _check_run(source)
+        label = f"run {run}"
+        with _data_file(f"trajectory_0{run}.csv.gz").open("rb") as raw:
+            data = raw.read()
+    else:
+        try:
+            path = Path(source)
+        except TypeError:
+            raise ValueError(
+                f"`source` must be a run number 0..{DFKI_RUNS - 1} or the path of a CSV file, "
+                f"got {source!r}"
+            ) from None
+        label = str(path)
+        if not path.is_file():
+            raise ValueError(f"{label}: no such file (give the path of a recording's CSV file)")
+        data = path.read_bytes()
+    if data[:2] == b"\x1f\x8b":
+        data = gzip.decompress(data)
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ValueError(f"{label}: not a text (CSV) file") from None
+    time, columns = _parse_csv(text, label, RECORD_COLUMNS)
+    keep = np.ones(time.size, dtype=bool)
+    keep[1:] = np.diff(time) != 0.0
+    time, columns = time[keep], columns[keep]
+    steps = np.diff(time)
+    if steps.size and not np.all(steps > 0):
+        row = int(np.flatnonzero(~(steps > 0))[0]) + 1
+        raise ValueError(
+            f"{label}: the time column decreases at data row {row + 1} (of those left after "
+            "dropping exact repeats); sort the rows by time"
+        )
+    if time.size < MIN_RECORD_SAMPLES:
+        raise ValueError(
+            f"{label}: {time.size} distinct time stamps, at least {MIN_RECORD_SAMPLES} needed"
+        )
+    return DfkiRecord(
+        name=label,
+        t=read_only(time),
+        q=read_only(columns[:, 0:2].copy()),
+        tau=read_only(columns[:, 2:4].copy()),
+        tau_commanded=read_only(columns[:, 4:6].copy()),
+    )
+
+
+TIED_PARAMETER_NAMES = (
+    "A1_M11",
+    "A2_M22",
+    "A3_M12",
+    "A5_g_m1r1_m2l1",
+    "A6_g_m2_r2",
+    "b1",
+    "cf1",
+    "b2",
+    "cf2",
+)
+"""The base parameters once :math:`A_4 = m_2 l_1 r_2` is tied to :math:`A_6 = g m_2 r_2` by the
+known :math:`l_1` and :math:`g`: :math:`A_4 = A_6\\, l_1 / g` (:func:`tie_a4_to_a6`)."""
+
+
+def tie_a4_to_a6(regressor: np.ndarray, link1_length_m: float, gravity_m_s2: float) -> np.ndarray:
+    """The regressor of :data:`TIED_PARAMETER_NAMES`: where :math:`l_1` and :math:`g` are known,
+    :math:`A_4 = m_2 l_1 r_2 = (l_1/g) A_6`, so
+
+    .. math:: D_{A_4} A_4 + D_{A_6} A_6 = (D_{A_6} + \\tfrac{l_1}{g} D_{A_4})\\, A_6,
+
+    and the column of :math:`A_4` is folded into that of :math:`A_6` (nine parameters left).
+
+    Parameters
+    ----------
+    regressor : numpy.ndarray, shape (..., 10)
+        Columns in the order of :data:`PENDULUM_PARAMETER_NAMES` (:func:`pendulum_regressor`).
+    link1_length_m, gravity_m_s2 : float
+        :math:`l_1` (m) and :math:`g` (m/s²), > 0 (the lab's: 0.2 and 9.81).
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 9)
+    """
+    regressor = np.asarray(regressor, dtype=float)
+    if regressor.shape[-1] != len(PENDULUM_PARAMETER_NAMES):
+        raise ValueError(
+            f"`regressor` must have {len(PENDULUM_PARAMETER_NAMES)} columns (last axis), got "
+            f"{regressor.shape}"
+        )
+    ratio = check_real("link1_length_m", link1_length_m, gt=0.0) / check_real(
+        "gravity_m_s2", gravity_m_s2, gt=0.0
+    )
+    a4, a6 = (
+        PENDULUM_PARAMETER_NAMES.index("A4_m2_l1_r2"),
+        PENDULUM_PARAMETER_NAMES.index("A6_g_m2_r2"),
+    )
+    tied = regressor.copy()
+    tied[..., a6] = regressor[..., a6] + ratio * regressor[..., a4]
+    return np.delete(tied, a4, axis=-1)
 
 
 def lab_parameters() -> dict[str, float]:

@@ -20,7 +20,7 @@ def test_list_shows_methods_parameters_presets_and_tasks(capsys):
     out = capsys.readouterr().out
     for text in ("butterworth", "cutoff_hz", "preset paper-signal (by paper): order=6, "
                  "cutoff_hz=25.0", "savitzky_golay", "window_s", "paper-signal [signal]",
-                 "robot-sim [robot (simulated)]", "dfki-cv [robot (real)]",
+                 "robot-sim [robot (simulated)]", "identify-dfki [robot (real)]",
                  "jacobi-influence", "40 grid tasks", "Fornberg (1988); time stamps: native)",
                  "Guo et al., AIM 2015; time stamps: resampled)"):  # fmt: skip
         assert text in out
@@ -120,7 +120,7 @@ def test_repeated_method_names_run_once(tmp_path, capsys):
         (["tune", "all", "paper-signal", "--criteria", "magic"], "--criteria: must be among"),
         (["tune", "all", "paper-signal", "--orders", "3"], "--orders: must be 1, 2 or 1,2"),
         (["tune", "all", "robot-sim"], "task 'robot-sim' cannot be tuned"),
-        (["run", "dfki-cv", "--seeds", "7"], "--seeds must be at most 6"),
+        (["run", "identify-dfki", "--seeds", "7"], "--seeds must be at most 6"),
     ],
 )  # fmt: skip
 def test_bad_input_is_one_line_and_exit_code_2(argv, message, capsys):

@@ -16,6 +16,7 @@ from scipy.signal import butter, sosfiltfilt
 from diffbench.signals.dfki import (
     DFKI_RUNS,
     PENDULUM_PARAMETER_NAMES,
+    TIED_PARAMETER_NAMES,
     DfkiRun,
     base_parameters,
     lab_base_parameters,
@@ -23,7 +24,9 @@ from diffbench.signals.dfki import (
     lab_parameters,
     load_dfki_run,
     pendulum_regressor,
+    read_dfki_record,
     resample_uniform,
+    tie_a4_to_a6,
 )
 
 DATA = files("diffbench.signals") / "data" / "dfki_double_pendulum"
@@ -422,3 +425,81 @@ def test_bad_physical_parameters_are_rejected():
     p["I1"] = math.nan
     with pytest.raises(ValueError, match="parameters\\['I1'\\]"):
         base_parameters(p)
+
+
+# --- recordings at their logged time stamps, and A4 tied to A6 ------------------------------
+def test_tied_regressor_reproduces_the_lab_model_with_nine_parameters():
+    """The lab's parameters have A4 = m2 l1 r2 = A6 l1 / g exactly; folding A4's column into
+    A6's by l1/g gives the same torques with A4 dropped."""
+    p = lab_parameters()
+    q, qd, qdd = random_states(np.random.default_rng(5), n=300)
+    full = pendulum_regressor(q, qd, qdd)
+    tied = tie_a4_to_a6(full, p["l1"], p["g"])
+    assert tied.shape == (300, 2, 9) and len(TIED_PARAMETER_NAMES) == 9
+    x = lab_base_parameters()
+    a4 = PENDULUM_PARAMETER_NAMES.index("A4_m2_l1_r2")
+    assert x[a4] == pytest.approx(x[PENDULUM_PARAMETER_NAMES.index("A6_g_m2_r2")] * 0.2 / 9.81)
+    np.testing.assert_allclose(tied @ np.delete(x, a4), full @ x, rtol=0, atol=1e-12)
+    with pytest.raises(ValueError, match="`regressor` must have 10 columns"):
+        tie_a4_to_a6(full[..., :9], p["l1"], p["g"])
+    with pytest.raises(ValueError, match="link1_length_m"):
+        tie_a4_to_a6(full, 0.0, p["g"])
+
+
+def test_a_record_is_the_csv_at_its_logged_times_and_a_copy_reads_the_same(tmp_path):
+    raw = raw_csv(4)
+    record = read_dfki_record(4)
+    keep = np.r_[True, np.diff(raw["time"]) != 0]
+    np.testing.assert_array_equal(record.t, raw["time"][keep])
+    np.testing.assert_array_equal(record.q[:, 1], raw["pos_meas2"][keep])
+    np.testing.assert_array_equal(record.tau[:, 0], raw["tau_meas1"][keep])
+    assert record.active_joints.tolist() == [False, True]  # run 4 drives joint 2 only
+    packed = tmp_path / "trajectory_04.csv.gz"
+    packed.write_bytes((DATA / "trajectory_04.csv.gz").read_bytes())
+    plain = tmp_path / "measured.csv"
+    plain.write_bytes(gzip.decompress(packed.read_bytes()))
+    for copy in (packed, plain):
+        again = read_dfki_record(copy)
+        assert again.name == str(copy)
+        for name in ("t", "q", "tau", "tau_commanded"):
+            np.testing.assert_array_equal(getattr(again, name), getattr(record, name))
+
+
+def _write(path, header, rows):
+    path.write_text(header + "\n" + "\n".join(rows) + "\n")
+    return path
+
+
+GOOD_HEADER = "time,pos_meas1,pos_meas2,tau_meas1,tau_meas2,tau_con1,tau_con2"
+
+
+def _good_rows(n=120):
+    return [f"{0.002 * k},{k},{-k},0.1,0.2,0.5,0" for k in range(n)]
+
+
+@pytest.mark.parametrize(
+    ("header", "rows", "message"),
+    [
+        ("time,pos_meas1,tau_meas1,tau_meas2,tau_con1,tau_con2", None,
+         r"lacks the columns \['pos_meas2'\]"),
+        (GOOD_HEADER, ["0.0,1,2,3,4,five,6"], "not a table of numbers"),
+        (GOOD_HEADER, ["0.0,1,2,3,4,nan,6"], "line 2 holds NaN or inf"),
+        (GOOD_HEADER, [*_good_rows(60), "0.05,1,1,1,1,1,1", *_good_rows(120)[61:]],
+         "the time column decreases at data row"),
+        (GOOD_HEADER, _good_rows(50), "50 distinct time stamps, at least 100 needed"),
+    ],
+)  # fmt: skip
+def test_bad_records_are_refused_in_one_line_naming_the_file(tmp_path, header, rows, message):
+    path = _write(tmp_path / "bad.csv", header, rows if rows is not None else _good_rows())
+    with pytest.raises(ValueError, match=message) as caught:
+        read_dfki_record(path)
+    assert str(path) in str(caught.value) and "\n" not in str(caught.value)
+
+
+def test_missing_record_file_and_bad_sources_are_refused(tmp_path):
+    with pytest.raises(ValueError, match="no such file"):
+        read_dfki_record(tmp_path / "absent.csv")
+    with pytest.raises(ValueError, match=r"`run` must be an integer in 0\.\.5"):
+        read_dfki_record(6)
+    good = _write(tmp_path / "good.csv", GOOD_HEADER, _good_rows())
+    assert read_dfki_record(good).q.shape == (120, 2)
