@@ -526,17 +526,7 @@ def read_dfki_record(source) -> DfkiRecord:
     )
 
 
-TIED_PARAMETER_NAMES = (
-    "A1_M11",
-    "A2_M22",
-    "A3_M12",
-    "A5_g_m1r1_m2l1",
-    "A6_g_m2_r2",
-    "b1",
-    "cf1",
-    "b2",
-    "cf2",
-)
+TIED_PARAMETER_NAMES = tuple(name for name in PENDULUM_PARAMETER_NAMES if name != "A4_m2_l1_r2")
 """The base parameters once :math:`A_4 = m_2 l_1 r_2` is tied to :math:`A_6 = g m_2 r_2` by the
 known :math:`l_1` and :math:`g`: :math:`A_4 = A_6\\, l_1 / g` (:func:`tie_a4_to_a6`)."""
 
