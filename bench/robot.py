@@ -132,7 +132,8 @@ class DfkiCrossValidation:
     (``tie_a4``); the identified model then predicts the torque of run k at its logged time
     stamps, and is scored by the RMSE against the **measured torque as logged** (raw), per
     actuated joint (a joint whose commanded torque is identically zero is passive: its measured
-    torque is only the driver's noise). The same prediction and measurement decimated alike are
+    torque is only the driver's noise), on the interior and (``whole_``) on every sample the
+    method estimates, ends included. The same prediction and measurement decimated alike are
     a second, labelled score (filtered), as is the lab's published model fed with the same
     derivatives.
 
@@ -165,25 +166,46 @@ NESTED_VARIANT = "settings by nested leave-one-run-out CV"
 
 
 @dataclass(frozen=True)
-class _RunEquations:
-    """What a fold needs of one run at one setting: the decimated equations (training and the
-    filtered score) and, per joint, the sums that give the raw squared error of any X."""
+class _TorqueSums:
+    """Per joint, the sums over a set of raw samples that give the squared torque error of any
+    parameter vector X (so that every fold's score costs no pass over the samples)."""
 
-    train_w: np.ndarray  # (m, joints, p), decimated, edges dropped
-    train_y: np.ndarray  # (m, joints)
-    gram: np.ndarray  # (joints, p, p): W_jᵀ W_j over the raw samples
+    gram: np.ndarray  # (joints, p, p): W_jᵀ W_j
     cross: np.ndarray  # (joints, p): W_jᵀ y_j
     energy: np.ndarray  # (joints,): y_jᵀ y_j
     samples: int
-    lab_raw_sse: np.ndarray  # (joints,) the lab model's raw squared error
-    lab_filtered: np.ndarray  # (m, joints) the lab model's torque, decimated like train_y
-    active: np.ndarray  # (joints,) bool
-    coverage: float
+    lab_sse: np.ndarray  # (joints,) the lab model's squared error on the same samples
+    coverage: float  # the share of the region's samples these are
 
-    def raw_sse(self, estimate: np.ndarray) -> np.ndarray:
-        """Σ (y − W X)² per joint over the raw samples, from the stored sums."""
+    @classmethod
+    def of(cls, w, y, lab_torque, coverage: float) -> _TorqueSums:
+        return cls(
+            gram=np.einsum("njp,njq->jpq", w, w),
+            cross=np.einsum("njp,nj->jp", w, y),
+            energy=np.einsum("nj,nj->j", y, y),
+            samples=int(y.shape[0]),
+            lab_sse=np.sum((lab_torque - y) ** 2, axis=0),
+            coverage=float(coverage),
+        )
+
+    def sse(self, estimate: np.ndarray) -> np.ndarray:
+        """:math:`\\sum (y - W X)^2` per joint, from the stored sums."""
         quadratic = np.einsum("p,jpq,q->j", estimate, self.gram, estimate)
         return self.energy - 2 * self.cross @ estimate + quadratic
+
+
+@dataclass(frozen=True)
+class _RunEquations:
+    """What a fold needs of one run at one setting: the decimated equations of the interior
+    (training and the filtered score), the raw torque sums of the interior (``inside``) and of
+    every sample the method estimates (``whole``)."""
+
+    train_w: np.ndarray  # (m, joints, p), decimated, edges dropped
+    train_y: np.ndarray  # (m, joints)
+    lab_filtered: np.ndarray  # (m, joints) the lab model's torque, decimated like train_y
+    inside: _TorqueSums
+    whole: _TorqueSums
+    active: np.ndarray  # (joints,) bool
 
 
 @functools.lru_cache(maxsize=16)
@@ -193,17 +215,28 @@ def dfki_record(source):
     return dfki.read_dfki_record(source)
 
 
+def _torque_model(record, estimate, where: np.ndarray, spec: DfkiCrossValidation):
+    """W, measured y and the lab's torque on the samples ``where``."""
+    from diffbench.signals import dfki
+
+    q, qd, qdd = (estimate[order][where] for order in (0, 1, 2))
+    w = dfki.pendulum_regressor(q, qd, qdd)
+    if spec.tie_a4:
+        lab = dfki.lab_parameters()
+        w = dfki.tie_a4_to_a6(w, lab["l1"], lab["g"])
+    return w, record.tau[where], dfki.lab_model_torques(q, qd, qdd)
+
+
 @functools.lru_cache(maxsize=512)
 def _run_equations(method: Method, index: int, spec: DfkiCrossValidation) -> _RunEquations:
     """The equations of run ``spec.records[index]`` with q, q̇, q̈ from ``method``; ValueError
     when the method estimates less than ``min_coverage`` of the run's interior."""
-    from diffbench.signals import dfki
-
     record = dfki_record(spec.records[index])
     t = record.t
     interior = (t >= t[0] + spec.interior_margin_s) & (t <= t[-1] - spec.interior_margin_s)
     estimate = method(record.q, spec.nominal_dt_s, t=t)
-    valid = interior & estimate.valid[0] & estimate.valid[1] & estimate.valid[2]
+    estimated = estimate.valid[0] & estimate.valid[1] & estimate.valid[2]
+    valid = interior & estimated
     indices = np.flatnonzero(valid)
     if not indices.size:
         raise ValueError(f"`method` {method.name!r} leaves no valid sample inside the interior")
@@ -214,26 +247,18 @@ def _run_equations(method: Method, index: int, spec: DfkiCrossValidation) -> _Ru
             f"`method` {method.name!r} estimates {coverage:.0%} of {record.name}'s interior in "
             f"one stretch; at least {spec.min_coverage:.0%} is needed"
         )
-    q, qd, qdd = (estimate[order][chosen] for order in (0, 1, 2))
-    w = dfki.pendulum_regressor(q, qd, qdd)
-    if spec.tie_a4:
-        lab = dfki.lab_parameters()
-        w = dfki.tie_a4_to_a6(w, lab["l1"], lab["g"])
-    y = record.tau[chosen]
-    lab_torque = dfki.lab_model_torques(q, qd, qdd)
+    w, y, lab_torque = _torque_model(record, estimate, chosen, spec)
     factor = decimation_factor(1 / spec.nominal_dt_s, spec.passband_hz)
     edges = slice(EDGE_SAMPLES, -EDGE_SAMPLES)
     return _RunEquations(
         train_w=parallel_decimation(w, factor)[edges],
         train_y=parallel_decimation(y, factor)[edges],
-        gram=np.einsum("njp,njq->jpq", w, w),
-        cross=np.einsum("njp,nj->jp", w, y),
-        energy=np.einsum("nj,nj->j", y, y),
-        samples=int(y.shape[0]),
-        lab_raw_sse=np.sum((lab_torque - y) ** 2, axis=0),
         lab_filtered=parallel_decimation(lab_torque, factor)[edges],
+        inside=_TorqueSums.of(w, y, lab_torque, coverage),
+        whole=_TorqueSums.of(
+            *_torque_model(record, estimate, estimated, spec), coverage=estimated.mean()
+        ),
         active=record.active_joints,
-        coverage=float(coverage),
     )
 
 
@@ -262,8 +287,8 @@ def inner_loss(method: Method, spec: DfkiCrossValidation, held_out: int) -> floa
         for left_out in runs:
             fit = _identify_on([equations[i] for i in runs if i != left_out], spec)
             scored = equations[left_out]
-            squared += float(np.sum(scored.raw_sse(fit.estimate)[scored.active]))
-            count += scored.samples * int(scored.active.sum())
+            squared += float(np.sum(scored.inside.sse(fit.estimate)[scored.active]))
+            count += scored.inside.samples * int(scored.active.sum())
     except ValueError:
         return math.inf
     return math.sqrt(squared / count)
@@ -377,16 +402,18 @@ def score_dfki_fold(
     scored = _run_equations(method, held_out, spec)
     rows += _parameter_rows(result)
     add = functools.partial(_add_row, rows)
-    raw = scored.raw_sse(result.estimate)
     filtered = np.einsum("mjp,p->mj", scored.train_w, result.estimate) - scored.train_y
     lab_filtered = scored.lab_filtered - scored.train_y
     for joint in (0, 1):
         if not scored.active[joint]:
             continue
         name = f"joint{joint + 1}"
-        add(f"torque_rmse.{name}", math.sqrt(max(raw[joint], 0.0) / scored.samples))
-        add(f"lab_torque_rmse.{name}", math.sqrt(scored.lab_raw_sse[joint] / scored.samples))
+        for prefix, sums in (("", scored.inside), ("whole_", scored.whole)):
+            sse = max(float(sums.sse(result.estimate)[joint]), 0.0)
+            add(f"{prefix}torque_rmse.{name}", math.sqrt(sse / sums.samples))
+            add(f"{prefix}lab_torque_rmse.{name}", math.sqrt(sums.lab_sse[joint] / sums.samples))
         add(f"filtered_torque_rmse.{name}", np.sqrt(np.mean(filtered[:, joint] ** 2)))
         add(f"lab_filtered_torque_rmse.{name}", np.sqrt(np.mean(lab_filtered[:, joint] ** 2)))
-    add("coverage", scored.coverage)
+    add("coverage", scored.inside.coverage)
+    add("whole_coverage", scored.whole.coverage)
     return rows

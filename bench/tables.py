@@ -209,7 +209,7 @@ def display_frame(wide: pd.DataFrame, columns) -> pd.DataFrame:
     shown = wide[["method", "package", "setting", "parameters"]].copy()
     shown.insert(2, "ẍ", [xddot_source(m) for m in wide["method"]])
     for label, metric, _, _ in columns:
-        if metric == "coverage":
+        if metric == "coverage" or metric.endswith("_coverage"):
             shown[label] = [f"{v:.3f}" if np.isfinite(v) else "—" for v in wide[f"{label} mean"]]
         else:
             shown[label] = [

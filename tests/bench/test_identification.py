@@ -139,7 +139,11 @@ def _independent_raw_rmse(method, spec, held_out, estimate_rows):
     ours = np.sqrt(np.mean((w @ x - record.tau[inside]) ** 2, axis=0))
     theirs = np.sqrt(np.mean((dfki.lab_model_torques(q, qd, qdd) - record.tau[inside]) ** 2,
                              axis=0))  # fmt: skip
-    return ours, theirs
+    everywhere = estimate.valid[0] & estimate.valid[1] & estimate.valid[2]
+    q, qd, qdd = (estimate[order][everywhere] for order in (0, 1, 2))
+    w = dfki.tie_a4_to_a6(dfki.pendulum_regressor(q, qd, qdd), lab["l1"], lab["g"])
+    whole = np.sqrt(np.mean((w @ x - record.tau[everywhere]) ** 2, axis=0))
+    return ours, theirs, whole, everywhere.mean()
 
 
 def test_dfki_fold_scores_the_measured_torque_at_the_logged_time_stamps():
@@ -153,10 +157,13 @@ def test_dfki_fold_scores_the_measured_torque_at_the_logged_time_stamps():
     method = methods.preset("savitzky_golay", "robot")
     rows = {r["metric"]: r["value"] for r in score_dfki_fold(method, spec, 2)}
     assert "estimate.A4_m2_l1_r2" not in rows and "velocity_rmse_vs_driver" not in rows
-    ours, lab = _independent_raw_rmse(method, spec, 2, rows)
+    ours, lab, whole, share = _independent_raw_rmse(method, spec, 2, rows)
+    assert rows["whole_coverage"] == share and share > 0.95
     for joint in (1, 2):
         raw = rows[f"torque_rmse.joint{joint}"]
         assert raw == pytest.approx(ours[joint - 1], rel=1e-9)
+        assert rows[f"whole_torque_rmse.joint{joint}"] == pytest.approx(whole[joint - 1],
+                                                                        rel=1e-9)  # fmt: skip
         assert rows[f"lab_torque_rmse.joint{joint}"] == pytest.approx(lab[joint - 1], rel=1e-12)
         assert raw < 0.3 and raw < 1.5 * lab[joint - 1]
         assert rows[f"filtered_torque_rmse.joint{joint}"] < raw
