@@ -27,7 +27,8 @@ PASSBAND_PER_BANDWIDTH = 5.0  # F_p = 5 x the position-loop bandwidth (the paper
 
 def estimate_states(method: Method, q: np.ndarray, dt: float, interior: np.ndarray):
     """(q_f, q̇, q̈) from ``method`` on the measured q (n, 2), restricted to the longest run of
-    samples valid for every order and inside ``interior``; returns them and that slice."""
+    samples valid for every order and inside ``interior``; returns them, that slice and the
+    whole estimate."""
     estimate = method(q, dt)
     valid = interior & estimate.valid[0] & estimate.valid[1] & estimate.valid[2]
     if not valid.any():
@@ -36,7 +37,7 @@ def estimate_states(method: Method, q: np.ndarray, dt: float, interior: np.ndarr
     chosen = slice(int(indices[0]), int(indices[-1]) + 1)
     if not valid[chosen].all():
         raise ValueError("the valid samples of the estimate are not contiguous")
-    return estimate[0][chosen], estimate[1][chosen], estimate[2][chosen], chosen
+    return estimate[0][chosen], estimate[1][chosen], estimate[2][chosen], chosen, estimate
 
 
 def identify(method: Method, realisation, scenario) -> tuple[Identification, tuple]:
@@ -46,14 +47,14 @@ def identify(method: Method, realisation, scenario) -> tuple[Identification, tup
     Coulomb (2/π)·atan(α q̇), α = ``scenario.coulomb_slope``); Y and W are decimated together
     with F_p = 5 × the closed-loop bandwidth.
     """
-    q, qd, qdd, chosen = estimate_states(method, realisation.q, realisation.dt_s,
-                                         realisation.interior)  # fmt: skip
+    q, qd, qdd, chosen, estimate = estimate_states(method, realisation.q, realisation.dt_s,
+                                                   realisation.interior)  # fmt: skip
     observation = robot2r.regressor(q, qd, qdd, scenario.link1_length_m, scenario.coulomb_slope)
     factor = decimation_factor(1 / realisation.dt_s,
                                PASSBAND_PER_BANDWIDTH * scenario.bandwidth_hz)  # fmt: skip
     result = idim_ls(observation, realisation.tau[chosen], robot2r.PARAMETER_NAMES, factor,
                      EDGE_SAMPLES)  # fmt: skip
-    return result, (q, qd, qdd, chosen)
+    return result, (q, qd, qdd, chosen, estimate)
 
 
 @functools.lru_cache(maxsize=8)
@@ -92,7 +93,7 @@ def _parameter_rows(result: Identification) -> list[dict[str, Any]]:
 def score_identification(method: Method, scenario, seed: int) -> list[dict[str, Any]]:
     """Tidy rows of one identification cell (region ``identification``, order 0)."""
     realisation = scenario.realise(seed)
-    result, (_, qd, qdd, chosen) = identify(method, realisation, scenario)
+    result, (_, qd, qdd, chosen, estimate) = identify(method, realisation, scenario)
     truth = scenario.true_parameters
     rows = _parameter_rows(result)
     add = functools.partial(_add_row, rows)
@@ -116,6 +117,12 @@ def score_identification(method: Method, scenario, seed: int) -> list[dict[str, 
     for order, values in ((1, qd), (2, qdd)):
         reference = (exact.qd if order == 1 else exact.qdd)[chosen]
         add("derivative_rmse", np.sqrt(np.mean((values - reference) ** 2)), order=order)
+        # the whole record: every sample the method estimates, ends included
+        valid = estimate.valid[order]
+        reference = (exact.qd if order == 1 else exact.qdd)[valid]
+        error = estimate[order][valid] - reference
+        add("whole_derivative_rmse", np.sqrt(np.mean(error**2)), order=order)
+        add("whole_coverage", valid.mean(), order=order)
     return rows
 
 

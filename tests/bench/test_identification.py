@@ -75,6 +75,26 @@ def test_every_method_identifies_the_well_excited_parameters_within_a_few_percen
         assert relative_torque < 0.05, (name, relative_torque)
 
 
+def test_robot_derivative_errors_on_the_interior_and_on_the_whole_record(scenario):
+    """The whole-record q̇, q̈ errors are those of every sample the method marks valid against
+    the exact derivatives, recomputed here; Butterworth estimates the whole record."""
+    method = methods.preset("butterworth", "robot")
+    (cell,) = preset_entry("butterworth", "robot").cells("robot-sim-short", [0])
+    rows = {(r["metric"], r["order"]): r["value"] for r in compute_cell(cell)}
+    realisation = scenario.realise(0)
+    estimate = method(realisation.q, realisation.dt_s)
+    for order, exact in ((1, realisation.truth.qd), (2, realisation.truth.qdd)):
+        valid = estimate.valid[order]
+        error = estimate[order][valid] - exact[valid]
+        assert rows[("whole_coverage", order)] == valid.mean()
+        assert rows[("whole_derivative_rmse", order)] == pytest.approx(
+            np.sqrt(np.mean(error**2)), rel=1e-12
+        )
+        inside = realisation.interior
+        assert rows[("derivative_rmse", order)] < rows[("whole_derivative_rmse", order)]
+        assert valid[inside].all()
+
+
 def test_well_excited_set_leaves_out_the_poorly_identified_parameters(scenario):
     mask = dict(zip(NAMES, robot.well_excited(scenario), strict=True))
     assert mask["ZZ1R"] and mask["FC1"] and not mask["MY2"]
