@@ -372,7 +372,7 @@ def dfki_report(cells: pd.DataFrame, directory: Path, spec) -> list[Path]:
     """``summary`` (held-out measured torque, raw and filtered, beside the lab's model, ranked by
     joint 1), ``settings`` (what nested cross-validation chose on each fold) and ``table2``
     (parameters beside the lab's)."""
-    from diffbench.bench.robot import NESTED_VARIANT, setting_of
+    from diffbench.bench.robot import NESTED_VARIANT, parameter_names, setting_of
     from diffbench.signals import dfki
 
     folds = len(spec.records)
@@ -435,11 +435,11 @@ def dfki_report(cells: pd.DataFrame, directory: Path, spec) -> list[Path]:
             "Chosen among the method's preset and Sobol draws of its tuning ranges "
             "(bench/robot.py: candidate_settings).",
         )
-    names_tied = dfki.TIED_PARAMETER_NAMES if spec.tie_a4 else dfki.PENDULUM_PARAMETER_NAMES
-    lab = dfki.lab_base_parameters()
-    if spec.tie_a4:
-        lab = np.delete(lab, dfki.PENDULUM_PARAMETER_NAMES.index("A4_m2_l1_r2"))
-    table = identification_table(cells, names_tied, reference=("lab", lab))
+    identified = parameter_names(spec)
+    lab = dict(zip(dfki.PENDULUM_PARAMETER_NAMES, dfki.lab_base_parameters(), strict=True))
+    table = identification_table(
+        cells, identified, reference=("lab", np.array([lab[name] for name in identified]))
+    )
     written += tables.write_report(
         directory,
         "table2",

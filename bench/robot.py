@@ -30,14 +30,24 @@ def estimate_states(method: Method, q: np.ndarray, dt: float, interior: np.ndarr
     samples valid for every order and inside ``interior``; returns them, that slice and the
     whole estimate."""
     estimate = method(q, dt)
-    valid = interior & estimate.valid[0] & estimate.valid[1] & estimate.valid[2]
-    if not valid.any():
-        raise ValueError(f"`method` {method.name!r} leaves no valid sample inside the interior")
-    indices = np.flatnonzero(valid)
-    chosen = slice(int(indices[0]), int(indices[-1]) + 1)
-    if not valid[chosen].all():
+    chosen = valid_stretch(method, estimate, interior)
+    if not (interior & _estimated(estimate))[chosen].all():
         raise ValueError("the valid samples of the estimate are not contiguous")
     return estimate[0][chosen], estimate[1][chosen], estimate[2][chosen], chosen, estimate
+
+
+def _estimated(estimate) -> np.ndarray:
+    """The samples ``estimate`` marks valid for q, q̇ and q̈ alike."""
+    return estimate.valid[0] & estimate.valid[1] & estimate.valid[2]
+
+
+def valid_stretch(method: Method, estimate, interior: np.ndarray) -> slice:
+    """The slice from the first to the last sample inside ``interior`` that ``estimate`` (of
+    ``method``) marks valid for every order; ValueError when there is none."""
+    indices = np.flatnonzero(interior & _estimated(estimate))
+    if not indices.size:
+        raise ValueError(f"`method` {method.name!r} leaves no valid sample inside the interior")
+    return slice(int(indices[0]), int(indices[-1]) + 1)
 
 
 def identify(method: Method, realisation, scenario) -> tuple[Identification, tuple]:
@@ -114,13 +124,11 @@ def score_identification(method: Method, scenario, seed: int) -> list[dict[str, 
         add(f"torque_rmse.joint{joint + 1}", np.sqrt(np.mean(error**2)))
         add(f"torque_rel_rmse.joint{joint + 1}", np.sqrt(np.mean(error**2)) / rms)
     exact = realisation.truth
-    for order, values in ((1, qd), (2, qdd)):
-        reference = (exact.qd if order == 1 else exact.qdd)[chosen]
-        add("derivative_rmse", np.sqrt(np.mean((values - reference) ** 2)), order=order)
+    for order, values, true in ((1, qd, exact.qd), (2, qdd, exact.qdd)):
+        add("derivative_rmse", np.sqrt(np.mean((values - true[chosen]) ** 2)), order=order)
         # the whole record: every sample the method estimates, ends included
         valid = estimate.valid[order]
-        reference = (exact.qd if order == 1 else exact.qdd)[valid]
-        error = estimate[order][valid] - reference
+        error = estimate[order][valid] - true[valid]
         add("whole_derivative_rmse", np.sqrt(np.mean(error**2)), order=order)
         add("whole_coverage", valid.mean(), order=order)
     return rows
@@ -242,19 +250,19 @@ def _run_equations(method: Method, index: int, spec: DfkiCrossValidation) -> _Ru
     t = record.t
     interior = (t >= t[0] + spec.interior_margin_s) & (t <= t[-1] - spec.interior_margin_s)
     estimate = method(record.q, spec.nominal_dt_s, t=t)
-    estimated = estimate.valid[0] & estimate.valid[1] & estimate.valid[2]
-    valid = interior & estimated
-    indices = np.flatnonzero(valid)
-    if not indices.size:
-        raise ValueError(f"`method` {method.name!r} leaves no valid sample inside the interior")
-    chosen = slice(int(indices[0]), int(indices[-1]) + 1)
+    estimated = _estimated(estimate)
+    chosen = valid_stretch(method, estimate, interior)
     coverage = (chosen.stop - chosen.start) / int(interior.sum())
-    if not valid[chosen].all() or coverage < spec.min_coverage:
+    if not estimated[chosen].all() or coverage < spec.min_coverage:
         raise ValueError(
             f"`method` {method.name!r} estimates {coverage:.0%} of {record.name}'s interior in "
             f"one stretch; at least {spec.min_coverage:.0%} is needed"
         )
-    w, y, lab_torque = _torque_model(record, estimate, chosen, spec)
+    # the model on every estimated sample once; the stretch is a part of them
+    whole = _torque_model(record, estimate, estimated, spec)
+    kept = np.flatnonzero(estimated)
+    inside = (kept >= chosen.start) & (kept < chosen.stop)
+    w, y, lab_torque = (array[inside] for array in whole)
     factor = decimation_factor(1 / spec.nominal_dt_s, spec.passband_hz)
     edges = slice(EDGE_SAMPLES, -EDGE_SAMPLES)
     return _RunEquations(
@@ -262,14 +270,13 @@ def _run_equations(method: Method, index: int, spec: DfkiCrossValidation) -> _Ru
         train_y=parallel_decimation(y, factor)[edges],
         lab_filtered=parallel_decimation(lab_torque, factor)[edges],
         inside=_TorqueSums.of(w, y, lab_torque, coverage),
-        whole=_TorqueSums.of(
-            *_torque_model(record, estimate, estimated, spec), coverage=estimated.mean()
-        ),
+        whole=_TorqueSums.of(*whole, coverage=estimated.mean()),
         active=record.active_joints,
     )
 
 
-def _parameter_names(spec: DfkiCrossValidation) -> tuple[str, ...]:
+def parameter_names(spec: DfkiCrossValidation) -> tuple[str, ...]:
+    """The base parameters identified: nine with A4 tied to A6, else ten."""
     from diffbench.signals import dfki
 
     return dfki.TIED_PARAMETER_NAMES if spec.tie_a4 else dfki.PENDULUM_PARAMETER_NAMES
@@ -279,7 +286,7 @@ def _identify_on(equations: list[_RunEquations], spec: DfkiCrossValidation) -> I
     return idim_ls(
         np.concatenate([e.train_w for e in equations]),
         np.concatenate([e.train_y for e in equations]),
-        _parameter_names(spec),
+        parameter_names(spec),
     )
 
 

@@ -287,7 +287,9 @@ class DfkiTask(Task):
     def score_cell(self, method, seed, role):
         from diffbench.bench.robot import NESTED_VARIANT, score_dfki_fold
 
-        return score_dfki_fold(method, self.spec, seed, nested=role.variant == NESTED_VARIANT)
+        if role.variant != NESTED_VARIANT:
+            return self.score(method, seed)
+        return score_dfki_fold(method, self.spec, seed, nested=True)
 
     def longest_record(self):
         from diffbench.bench.robot import dfki_record

@@ -26,7 +26,7 @@ import numpy as np
 from scipy import fft as sp_fft
 from scipy.sparse.linalg import LinearOperator, cg
 
-from diffbench.methods._ends import trusted_samples
+from diffbench.methods._ends import mask_untrusted, trusted_samples
 from diffbench.methods._registry import Method, Preset, param, register
 
 TRUNCATE = 9.0
@@ -513,8 +513,7 @@ class GaussianProcessMarginalLikelihood(Method):
                     "its channels fit; use a longer record, or gaussian_process with settings "
                     "of a shorter reach"
                 )
-            columns_order = values[order]
-            values[order] = np.where(valid[order][:, None], columns_order, np.nan)
+            values[order] = mask_untrusted(values[order], valid[order])
         values = {order: value.reshape(x.shape) for order, value in values.items()}
         return values, valid
 
