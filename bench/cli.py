@@ -287,7 +287,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     check = commands.add_parser(
         "recommend-check",
-        parents=[out, plug],
+        parents=[out, plug, work],
         help="score `recommend` against the truth on the signal scenarios (as if unknown)",
     )
     check.add_argument(
@@ -627,6 +627,7 @@ def _cmd_recommend(args) -> None:
 
 
 def _cmd_recommend_check(args) -> None:
+    import functools
     import json
 
     from diffbench import signals
@@ -651,10 +652,11 @@ def _cmd_recommend_check(args) -> None:
     key = ",".join(names)
     finished = {row["scenario"] for row in done if row.get("methods") == key}
     rows = [row for row in done if row.get("methods") == key and row["scenario"] in scenarios]
-    for name in scenarios:
-        if name in finished:
-            continue
-        new = [{**row, "methods": key} for row in recommend.validate(name, names)]
+    todo = [name for name in scenarios if name not in finished]
+    validate = functools.partial(recommend.validate, names=tuple(names))
+    # workers return rows, this process alone appends them, each scenario as it finishes
+    for name, found in executor.completed_map(validate, todo, args.jobs):
+        new = [{**row, "methods": key} for row in found]
         with done_path.open("a") as stream:
             stream.writelines(json.dumps(row) + "\n" for row in new)
         rows += new

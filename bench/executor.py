@@ -1,10 +1,12 @@
 """Where work runs: in this process, or on local worker processes that never outlive the run.
 
-``ordered_map(function, items, jobs)`` yields ``function(item)`` in the order of ``items``.
-With ``jobs`` > 1 it uses a :class:`concurrent.futures.ProcessPoolExecutor`; when the caller
-stops iterating (an exception, Ctrl-C, SIGTERM turned into :class:`Terminated`) pending work is
-cancelled and every worker is terminated and joined. A worker whose parent dies without that
-chance (SIGKILL) notices within a quarter second and exits, so no process is left behind.
+``ordered_map(function, items, jobs)`` yields ``function(item)`` in the order of ``items``;
+``completed_map`` yields ``(item, function(item))`` as each finishes (a caller storing results
+loses none that finished when it is stopped). With ``jobs`` > 1 they use a
+:class:`concurrent.futures.ProcessPoolExecutor`; when the caller stops iterating (an
+exception, Ctrl-C, SIGTERM turned into :class:`Terminated`) pending work is cancelled and every
+worker is terminated and joined. A worker whose parent dies without that chance (SIGKILL)
+notices within a quarter second and exits, so no process is left behind.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ import signal
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Any
 
 PARENT_POLL_S = 0.25
@@ -73,6 +75,27 @@ def ordered_map(function: Callable[[Any], Any], items: Sequence[Any], jobs: int 
         futures = [pool.submit(function, item) for item in items]
         for future in futures:
             yield future.result()
+    finally:
+        stop(pool)
+
+
+def completed_map(
+    function: Callable[[Any], Any], items: Sequence[Any], jobs: int = 1
+) -> Iterator[tuple[Any, Any]]:
+    """``(item, function(item))`` for each item as soon as it is done, on ``jobs`` local
+    processes (1: here, in order)."""
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise ValueError(f"`jobs` must be an integer >= 1, got {jobs!r}")
+    if jobs == 1 or len(items) <= 1:
+        for item in items:
+            yield item, function(item)
+        return
+    pool = ProcessPoolExecutor(max_workers=min(jobs, len(items)), mp_context=_context(),
+                               initializer=_worker_start, initargs=(os.getpid(),))  # fmt: skip
+    try:
+        futures = {pool.submit(function, item): item for item in items}
+        for future in as_completed(futures):
+            yield futures[future], future.result()
     finally:
         stop(pool)
 

@@ -116,7 +116,7 @@ def record_spectrum(x: np.ndarray, dt: float) -> RecordSpectrum:
     band = None
     for _ in range(ROUNDS):
         candidate = RecordSpectrum(frequency, power, smoothed, floor, 0.0, bins, sharp)
-        new_band = _band_edge(frequency, smoothed, candidate.threshold(), bins)
+        new_band = band_edge(frequency, smoothed, candidate.threshold(), bins)
         above = frequency > new_band + bins * frequency[1]
         if np.count_nonzero(above) < MIN_BINS_ABOVE:
             above = upper
@@ -127,7 +127,7 @@ def record_spectrum(x: np.ndarray, dt: float) -> RecordSpectrum:
     return RecordSpectrum(frequency, power, smoothed, floor, float(band), bins, sharp)
 
 
-def _band_edge(frequency: np.ndarray, smoothed: np.ndarray, threshold: float, bins: int) -> float:
+def band_edge(frequency: np.ndarray, smoothed: np.ndarray, threshold: float, bins: int) -> float:
     """The last loud bin (smoothed power above ``threshold``) before a quiet stretch at least
     as wide as the band so far (an octave), scanning up from 0 Hz, less the half-width of the
     running mean (which spreads a line over ``bins`` bins); 0 when nothing is loud."""

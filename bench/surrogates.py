@@ -2,43 +2,60 @@ r"""Surrogate records: records like the user's, whose truth is known.
 
 A record alone cannot score a differentiator (its truth is unknown), but its spectrum says
 what kind of signal and noise it holds (:mod:`diffbench.bench.spectrum`). A *surrogate* is a
-record drawn from that description: a signal with the record's signal spectrum and random
-phases, plus noise with its noise spectrum,
+record drawn from that description: the record's own sinusoids, a continuum with the rest of
+its signal spectrum and random phases, and fresh noise with its noise spectrum,
 
 .. math::
-    s(t) = \sum_k a_k \cos(2\pi f_k t + \varphi_k), \qquad
-    a_k = \sqrt{2 w_k \hat S_k / N},\quad \varphi_k \sim U(0, 2\pi),
+    s(t) = \sum_l A_l \cos(2\pi f_l t + \phi_l)
+         + \sum_k a_k \cos(2\pi f_k t + \varphi_k), \qquad
+    a_k = \sqrt{2 w_k \hat S_k / N},\quad \varphi_k \sim U(0, 2\pi).
 
-:math:`\hat S_k = \max(P_k - \nu, 0)` below the band and 0 above it (:math:`w_k = 2`, or 1 at
-0 Hz and Nyquist, so that the signal's variance is :math:`\frac1N \sum_k w_k \hat S_k`, that of
-the record less its noise), and the noise Gaussian with the spectrum :math:`\nu` below the band
-and :math:`P_k` above it (a disturbance line stays where it was). Sinusoids (peaks standing far
-above their neighbourhood, :func:`spectral_lines`) stay lines, at their measured frequency and
-amplitude. The derivatives of the signal are exact (the sums differentiated term by term), so
-any method, linear or not, can be scored and tuned on surrogates with the oracle criterion:
-data-only tuning for every method.
+The *lines* (peaks standing far above their neighbourhood, :func:`spectral_lines`) are fitted
+to the record by least squares, frequency, amplitude and phase (:func:`fit_lines`): a
+surrogate keeps them as they are in the record, so that what a method does with this record's
+deterministic part (at its ends too) is what it is tuned on. The continuum
+:math:`\hat S_k = \max(\hat P_k - \nu, 0)` comes from the multitaper spectrum
+:math:`\hat P_k` of the record less its lines over the part of it that is scored
+(:func:`continuum_spectrum`: a chirp's last frequencies count as much as its first), below
+the band that spectrum shows, and is 0 above it (:math:`w_k = 2`, or 1 at 0 Hz and Nyquist,
+so that its variance is :math:`\frac1N \sum_k w_k \hat S_k`); the noise is Gaussian with
+the spectrum :math:`\nu` below the band and the record's periodogram above it (a
+disturbance line stays where it was). The derivatives of the signal are exact (the sums
+differentiated term by term), so any method, linear or not, can be scored and tuned on
+surrogates with the oracle criterion: data-only tuning for every method.
 
-The signal is drawn on a grid ``LENGTH_FACTOR`` times as fine in frequency (the record's
+The continuum is drawn on a grid ``LENGTH_FACTOR`` times as fine in frequency (the
 spectrum interpolated onto it) and taken on the record's span, so that a surrogate is not
 periodic over the record: a method that assumes it is (an FFT) pays at the ends as on data.
 
-Reference: J. Theiler et al., "Testing for nonlinearity in time series: the method of
-surrogate data", Physica D 58 (1992) 77-94 (random-phase surrogates).
+References: J. Theiler et al., "Testing for nonlinearity in time series: the method of
+surrogate data", Physica D 58 (1992) 77-94 (random-phase surrogates); D. J. Thomson,
+"Spectrum estimation and harmonic analysis", Proc. IEEE 70 (1982) 1055-1096 (multitaper
+estimate; lines removed before the continuum is estimated).
 """
 
 from __future__ import annotations
 
 import numpy as np
+from scipy import optimize, stats
+from scipy import signal as sps
 
 from diffbench import signals
-from diffbench.bench.spectrum import RecordSpectrum, window
+from diffbench.bench.spectrum import (
+    DYNAMIC_RANGE,
+    FALSE_ALARM,
+    RecordSpectrum,
+    band_edge,
+    periodogram,
+    window,
+)
 
 LENGTH_FACTOR = 3
 """The surrogate's frequency grid is this many times finer than the record's."""
 
 LINE_RATIO = 30.0
 """A peak of the Hann periodogram this many times above its neighbourhood is a sinusoid (a
-line), not part of a continuous spectrum: the surrogate keeps it a line, at its frequency."""
+line), not part of a continuous spectrum: the surrogate keeps it as fitted to the record."""
 
 LINE_NEIGHBOURS = 8
 """Bins each side, beyond the main lobe, whose median a line must stand above."""
@@ -47,51 +64,82 @@ END_FRACTION = 0.05
 """The samples within this fraction of the record of either end are left out of a surrogate's
 ``interior`` (a method may mask a few end samples and still be scored)."""
 
+TIME_BANDWIDTH = 4.0
+"""NW of the continuum's multitaper estimate: its resolution is ±NW/T Hz (T: the interior's
+span)."""
+
+MIN_CONCENTRATION = 0.999
+"""The Slepian tapers used keep at least this fraction of their energy within ±NW/T: at
+NW = 4, five of the seven, so that less than 1e-3 of a strong component leaks elsewhere."""
+
 
 def surrogate_records(
-    spectrum: RecordSpectrum, n_samples: int, dt: float, count: int, seed: int = 0
+    spectrum: RecordSpectrum,
+    x: np.ndarray,
+    dt: float,
+    count: int,
+    seed: int = 0,
+    scored: np.ndarray | None = None,
 ) -> list[signals.Realisation]:
-    """``count`` surrogate realisations of ``n_samples`` samples at step ``dt`` drawn from
-    ``spectrum`` (that of a record of ``n_samples`` samples), seeded by ``seed``."""
+    """``count`` surrogate realisations of the record ``x`` (uniform step ``dt``, its
+    spectrum ``spectrum``), seeded by ``seed``. ``scored``: the samples whose derivatives are
+    wanted (the surrogates' ``interior``, where their continuum is measured; default all but
+    ``END_FRACTION`` of the record at either end)."""
+    x = np.asarray(x, dtype=np.float64)
+    n_samples = x.size
     if spectrum.frequency_hz.size != n_samples // 2 + 1:
         raise ValueError(
             f"`spectrum` is that of a record of {2 * (spectrum.frequency_hz.size - 1)} or so "
             f"samples, not of {n_samples}"
         )
+    interior = default_scored(n_samples) if scored is None else np.asarray(scored, dtype=bool)
+    if interior.shape != (n_samples,) or interior.sum() < 16:
+        raise ValueError(
+            f"`scored` must be a boolean mask of {n_samples} samples with at least 16 set"
+        )
     long = LENGTH_FACTOR * n_samples
     fine = np.fft.rfftfreq(long, dt)
-    in_band = spectrum.frequency_hz <= spectrum.band_hz
-    signal_power = np.where(
-        in_band, np.maximum(spectrum.sharp_power - spectrum.noise_floor, 0.0), 0.0
+    # every line is fitted (a disturbance's too: what it leaves would bias the signal's) and
+    # the signal's (in the band) kept; the noise above the band has the spectrum of the record
+    # less them (disturbances in it, not the reach of the signal lines' taper leakage)
+    line_hz, line_amplitude, line_phase, rest = fit_lines(
+        x, dt, spectral_lines(spectrum, n_samples, up_to_hz=spectrum.frequency_hz[-1])[0]
     )
-    line_hz, line_amplitude, lobes = spectral_lines(spectrum, n_samples)
-    signal_power[lobes] = 0.0
-    noise_power = np.where(in_band, spectrum.noise_floor, spectrum.power)
+    fitted = 3 * line_hz.size + 2  # frequency, amplitude, phase per line; constant, slope
+    signal = line_hz <= spectrum.band_hz
+    line_omega = 2 * np.pi * line_hz[signal]
+    t = np.arange(n_samples) * dt
+    argument = np.outer(t, line_omega) + line_phase[signal]  # the record's own lines
+    line_terms = [
+        np.real((1j * line_omega) ** order * np.exp(1j * argument)) @ line_amplitude[signal]
+        for order in range(3)
+    ]
+    rest_power, continuum_hz, floor = continuum_spectrum(rest, dt, spectrum, interior, fitted)
+    signal_power = np.where(
+        spectrum.frequency_hz <= continuum_hz, np.maximum(rest_power - floor, 0.0), 0.0
+    )
+    noise_power = np.where(
+        spectrum.frequency_hz <= max(continuum_hz, spectrum.band_hz),
+        floor,
+        periodogram(x - line_terms[0], dt)[1],
+    )
     # on the finer grid each bin holds 1/LENGTH_FACTOR of the variance of the record's bin
     fine_signal = np.interp(fine, spectrum.frequency_hz, signal_power) / LENGTH_FACTOR
     fine_signal[0] = fine_signal[-1] = 0.0  # no constant (detrended), no Nyquist term
     amplitude = 2 * np.sqrt(fine_signal / n_samples)  # a_k = sqrt(2 w_k S_k / N), w_k = 2
     omega = 2 * np.pi * fine
-    line_omega = 2 * np.pi * line_hz
-    t = np.arange(n_samples) * dt
-    interior = np.zeros(n_samples, dtype=bool)
-    margin = int(END_FRACTION * n_samples)
-    interior[margin : n_samples - margin] = True
     rng = np.random.default_rng([7, seed])
     realisations = []
     for index in range(count):
         # the continuum by inverse FFT on the long grid (its derivatives: (iω)^n times each
-        # term), a window of the record's length taken at random; the lines summed directly
+        # term), a window of the record's length taken at random
         phase = np.exp(1j * rng.uniform(0.0, 2 * np.pi, fine.size))
         start = int(rng.integers(0, long - n_samples + 1))
-        line_phase = rng.uniform(0.0, 2 * np.pi, line_hz.size)
-        argument = np.outer(t + start * dt, line_omega) + line_phase
         derivatives = []
         for order in range(3):
             terms = (long / 2) * amplitude * phase * (1j * omega) ** order
             continuum = np.fft.irfft(terms, long)[start : start + n_samples]
-            lines = np.real((1j * line_omega) ** order * np.exp(1j * argument)) @ line_amplitude
-            derivatives.append(continuum + lines)
+            derivatives.append(continuum + line_terms[order])
         truth = signals.Truth(t=t, derivatives=tuple(derivatives))
         noise = _coloured_noise(noise_power, n_samples, rng)
         realisations.append(
@@ -109,9 +157,10 @@ def surrogate_records(
 
 
 def spectral_lines(
-    spectrum: RecordSpectrum, n_samples: int
+    spectrum: RecordSpectrum, n_samples: int, up_to_hz: float | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Sinusoids in the band: the peaks of the Hann periodogram that stand ``LINE_RATIO`` times
+    """Sinusoids in the band (or up to ``up_to_hz``: disturbances too): the peaks of the Hann
+    periodogram that stand ``LINE_RATIO`` times
     above the noise floor and the median of the quieter side of their neighbourhood
     (``LINE_NEIGHBOURS`` bins each side beyond the main lobe), their frequency refined by a
     parabola through the log power of the peak bin and its neighbours, their amplitude from
@@ -125,7 +174,8 @@ def spectral_lines(
     coherent = np.sum(taper) ** 2 / np.sum(taper**2)
     lobes = np.zeros(power.size, dtype=bool)
     found_hz, found_amplitude = [], []
-    last = np.searchsorted(frequency, spectrum.band_hz, side="right") - 1
+    top = spectrum.band_hz if up_to_hz is None else up_to_hz
+    last = np.searchsorted(frequency, top, side="right") - 1
     for k in range(2, min(last + 1, power.size - 2)):
         if not (power[k] >= power[k - 1] and power[k] > power[k + 1]):
             continue
@@ -142,6 +192,110 @@ def spectral_lines(
         found_amplitude.append(2 * np.sqrt(power[k] / coherent) / gain)
         lobes[k - 2 : k + 3] = True
     return np.array(found_hz), np.array(found_amplitude), lobes
+
+
+def default_scored(n_samples: int) -> np.ndarray:
+    """All but ``END_FRACTION`` of ``n_samples`` at either end."""
+    scored = np.zeros(n_samples, dtype=bool)
+    margin = int(END_FRACTION * n_samples)
+    scored[margin : n_samples - margin] = True
+    return scored
+
+
+def continuum_spectrum(
+    rest: np.ndarray, dt: float, spectrum: RecordSpectrum, scored: np.ndarray, fitted: int = 0
+) -> tuple[np.ndarray, float, float]:
+    r"""The spectrum of the record less its lines, ``rest``, where it is scored, the band it
+    occupies and the white-noise floor under it.
+
+    A multitaper estimate (Thomson 1982) on the stretch of the linearly detrended ``rest``
+    from the first to the last ``scored`` sample:
+
+    .. math:: \hat P_k = \frac1K \sum_{j<K} \Big|\sum_i v^{(j)}_i r_i e^{-2\pi i ik/M}\Big|^2,
+
+    with the Slepian tapers :math:`v^{(j)}` of time-bandwidth ``TIME_BANDWIDTH`` (NW) whose
+    concentration within ±W = NW/T Hz is at least ``MIN_CONCENTRATION``. Unlike one tapered
+    periodogram, which hardly sees the first and last fifths of the record, the tapers
+    together weigh the stretch nearly evenly: a chirp's last frequencies or a transient's
+    tail count about as much as they do in the error. The band ends at the last bin standing
+    above what noise alone reaches (a gamma variable of shape K and mean ν: ``FALSE_ALARM``
+    per record) before an octave of quiet, and within an octave of the record's band (a line
+    far above it, a disturbance, is noise), less W; 0 Hz when nothing stands out (a record of
+    lines and noise). The floor ν: the median of the Hann periodogram of ``rest`` above that
+    band over ln 2 (lines removed, every bin above the continuum is noise: a short record's
+    floor is no longer taken from the few bins above its band), starting from the record's,
+    times N/(N − p) when ``fitted`` = p parameters were fitted to the record to leave ``rest``
+    (they took p/N of the noise's variance with them).
+
+    Returns :math:`\hat P` on the record's rfft grid (interpolated), the band edge in Hz and
+    ν.
+    """
+    rest = np.asarray(rest, dtype=np.float64)
+    where = np.flatnonzero(scored)
+    stretch = sps.detrend(rest[where[0] : where[-1] + 1])
+    tapers, concentration = sps.windows.dpss(
+        stretch.size, TIME_BANDWIDTH, int(2 * TIME_BANDWIDTH) - 1, sym=False,
+        return_ratios=True,
+    )  # fmt: skip
+    tapers = tapers[concentration >= MIN_CONCENTRATION]
+    power = np.mean(np.abs(np.fft.rfft(tapers * stretch, axis=1)) ** 2, axis=0)
+    frequency = np.fft.rfftfreq(stretch.size, dt)
+    count = tapers.shape[0]
+    quantile = float(stats.gamma.isf(FALSE_ALARM / frequency.size, count, scale=1.0 / count))
+    # an octave of quiet above the record's band: what lies beyond is a disturbance (noise)
+    below = frequency <= 2 * spectrum.band_hz
+    rest_frequency, rest_power = periodogram(rest, dt, "hann")  # every line removed
+    floor, edge = spectrum.noise_floor, 0.0
+    least = DYNAMIC_RANGE * float(np.max(rest_power))  # the taper's reach, lines removed
+    for _ in range(2):  # the edge under the record's floor, the floor above that edge, again
+        last = band_edge(frequency[below], power[below], floor * quantile, 1)
+        edge = max(0.0, last - TIME_BANDWIDTH / (stretch.size * dt)) if last > 0 else 0.0
+        quiet = rest_power[(rest_frequency > edge) & (rest_frequency > 2 * rest_frequency[1])]
+        if quiet.size >= 8:
+            floor = float(np.median(quiet) / np.log(2)) * rest.size / (rest.size - fitted)
+            floor = max(floor, least)
+    return np.interp(spectrum.frequency_hz, frequency, power), edge, floor
+
+
+def fit_lines(
+    x: np.ndarray, dt: float, frequency_hz: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    r"""The sinusoids near ``frequency_hz`` fitted to the record ``x`` (step ``dt``) by
+    nonlinear least squares, with a constant and a slope:
+
+    .. math:: x_j \approx c_0 + c_1 t_j + \sum_l A_l \cos(2\pi f_l t_j + \phi_l),
+
+    each :math:`f_l` kept within one periodogram bin of its starting value (the amplitudes and
+    phases are linear given the frequencies: solved exactly for each trial, the frequencies by
+    ``scipy.optimize.least_squares``). Returns the frequencies (Hz), amplitudes, phases (rad)
+    and the record less the fitted sinusoids (its constant and slope kept)."""
+    x = np.asarray(x, dtype=np.float64)
+    start = np.asarray(frequency_hz, dtype=np.float64)
+    if start.size == 0:
+        return start, start.copy(), start.copy(), x.copy()
+    t = np.arange(x.size) * dt
+    centred = t - t.mean()
+
+    def fitted(frequency):
+        argument = np.outer(t, 2 * np.pi * frequency)
+        design = np.column_stack([np.ones_like(t), centred, np.cos(argument), np.sin(argument)])
+        coefficients, *_ = np.linalg.lstsq(design, x, rcond=None)
+        return design, coefficients
+
+    def residual(frequency):
+        design, coefficients = fitted(frequency)
+        return design @ coefficients - x
+
+    resolution = 1.0 / (x.size * dt)
+    solution = optimize.least_squares(
+        residual, start, bounds=(start - resolution, start + resolution), x_scale=resolution,
+        xtol=1e-12, ftol=1e-12, gtol=1e-12,
+    )  # fmt: skip
+    design, coefficients = fitted(solution.x)
+    cosine, sine = np.split(coefficients[2:], 2)
+    # A cos(ωt + φ) = A cos φ cos ωt − A sin φ sin ωt
+    amplitude, phase = np.hypot(cosine, sine), np.arctan2(-sine, cosine)
+    return solution.x, amplitude, phase, x - design[:, 2:] @ coefficients[2:]
 
 
 def _coloured_noise(power: np.ndarray, n_samples: int, rng: np.random.Generator) -> np.ndarray:

@@ -209,3 +209,25 @@ def test_tables_print_the_parameters_a_setting_uses_in_declaration_order():
     )
     # a method not registered keeps every stored parameter, sorted by name
     assert tables.readable_params("nowhere.method", '{"b": 2, "a": 1.23456}') == "a=1.235, b=2"
+
+
+def _square_after(item):
+    import time
+
+    time.sleep(item[1])
+    return item[0] ** 2
+
+
+def test_completed_map_yields_each_result_as_it_finishes():
+    """Two workers, the first item the slowest: its result comes last, every result is its
+    item's, and one job keeps the items' order."""
+    from diffbench.bench.executor import completed_map
+
+    items = [(3, 1.0), (4, 0.0), (5, 0.0)]
+    found = list(completed_map(_square_after, items, jobs=2))
+    assert sorted(found) == [((3, 1.0), 9), ((4, 0.0), 16), ((5, 0.0), 25)]
+    assert found[-1] == ((3, 1.0), 9)
+    assert list(completed_map(_square_after, items[1:], jobs=1)) == [((4, 0.0), 16),
+                                                                     ((5, 0.0), 25)]  # fmt: skip
+    with pytest.raises(ValueError, match="`jobs` must be an integer >= 1, got 0"):
+        list(completed_map(_square_after, items, jobs=0))
