@@ -250,6 +250,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     timing.set_defaults(handler=_cmd_timing)
 
+    export = commands.add_parser(
+        "export",
+        parents=[plug],
+        help="write a scenario's record (time, samples and truth) as a user's CSV or Parquet file",
+    )
+    export.add_argument("scenario", help="a scenario name (diffbench list shows them)")
+    export.add_argument("file", type=Path, help="the .csv or .parquet file to write")
+    export.add_argument("--seed", type=_seed, default=0, help="the noise seed (default 0)")
+    export.set_defaults(handler=_cmd_export)
+
     advice = commands.add_parser(
         "recommend",
         parents=[plug],
@@ -606,6 +616,16 @@ def _cmd_paper_figures(args) -> None:
     written += paper.write_error_profile(directory, seeds=args.seeds)
     for path in written:
         print(path)
+
+
+def _cmd_export(args) -> None:
+    from diffbench import signals
+    from diffbench.bench import user_data
+
+    with user_input():
+        realisation = signals.get_scenario(args.scenario).realise(args.seed)
+        path = user_data.write_scenario_record(realisation, args.file)
+    print(path)
 
 
 def _cmd_recommend(args) -> None:

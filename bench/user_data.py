@@ -124,3 +124,27 @@ def _numbers(column: pd.Series, name: str, path: Path) -> np.ndarray:
         what = "is empty" if pd.isna(cell) else f"holds {cell!r}, not a finite number"
         raise ValueError(f"{path}: column {name!r} row {index + 2} {what}")
     return values
+
+
+def write_scenario_record(realisation, path: str | Path) -> Path:
+    """Write a scenario's realisation as a user's file (CSV or Parquet by ``path``'s suffix):
+    columns ``t`` (its time stamps, s), ``x`` (the noisy samples) and the truth beside,
+    ``x_true``, ``dx_true``, ``ddx_true``, for scoring what is done with ``x`` afterwards.
+    CSV numbers are written with 17 significant digits (they read back exactly)."""
+    path = Path(path)
+    kind = FORMATS.get(path.suffix.lower())
+    if kind is None:
+        raise ValueError(f"{path}: write a .csv or .parquet file (got {path.suffix or 'none'})")
+    x = np.asarray(realisation.x)
+    if x.ndim != 1:
+        raise ValueError(f"{path}: only one-channel scenarios are written, got shape {x.shape}")
+    frame = pd.DataFrame({
+        "t": realisation.t, "x": x, "x_true": realisation.truth[0],
+        "dx_true": realisation.truth[1], "ddx_true": realisation.truth[2],
+    })  # fmt: skip
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if kind == "CSV":
+        frame.to_csv(path, index=False, float_format="%.17g")
+    else:
+        frame.to_parquet(path, index=False)
+    return path

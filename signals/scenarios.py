@@ -350,6 +350,23 @@ register_scenario(
 )
 register_scenario(
     Scenario(
+        name="pendulum-500hz-jitter",
+        signal=DampedOscillation(natural_hz=1.5, damping_ratio=0.03, amplitude=1.0, phase_rad=0.0),
+        noise=NoiseStack((Gaussian(std=0.01),)),
+        dt_s=2e-3,
+        duration_s=5.0,
+        interior_margin_s=0.25,
+        sampling=(Jitter(fraction=0.3),),
+        description=(
+            "A record a user would have: 5 s of a lightly damped 1.5 Hz oscillation (damping "
+            "ratio 0.03) logged at 500 Hz with stamps jittered by up to 30 % of the step, "
+            "with Gaussian noise of standard deviation 0.01 (the example of `recommend`)."
+        ),
+        preset="default",
+    )
+)
+register_scenario(
+    Scenario(
         name="polynomial-clean",
         signal=Polynomial(coefficients=(0.5, 1.0, -1.5, 0.5)),
         noise=NoiseStack(()),

@@ -1,5 +1,6 @@
 """`diffbench recommend FILE` on a CSV a user would have: 5 s of a damped oscillation at 500 Hz
-with noise and a jittered time column. Exact truth: the oscillation's analytic derivatives."""
+with noise and a jittered time column (`diffbench export pendulum-500hz-jitter`). Exact truth:
+the oscillation's analytic derivatives, written beside it."""
 
 import re
 
@@ -7,47 +8,54 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from diffbench import signals
 from diffbench.bench.cli import main
+from diffbench.bench.user_data import read_record
 
 DT = 0.002
 
 
-def _oscillation(t):
-    """x = e^{-0.3t} sin(2π·1.5t) and its first derivative."""
-    omega, decay = 2 * np.pi * 1.5, 0.3
-    x = np.exp(-decay * t) * np.sin(omega * t)
-    dx = np.exp(-decay * t) * (omega * np.cos(omega * t) - decay * np.sin(omega * t))
-    return x, dx
-
-
 @pytest.fixture
-def user_csv(tmp_path):
-    rng = np.random.default_rng(4)
-    t = np.arange(2500) * DT + rng.uniform(-0.3, 0.3, 2500) * DT
-    x, dx = _oscillation(t)
+def user_csv(tmp_path, capsys):
     path = tmp_path / "pendulum.csv"
-    pd.DataFrame({"t": t, "angle": x + 0.01 * rng.standard_normal(t.size)}).to_csv(
-        path, index=False, float_format="%.12g"
-    )
-    return path, t, dx
+    assert main(["export", "pendulum-500hz-jitter", str(path)]) == 0
+    assert capsys.readouterr().out.strip() == str(path)
+    table = pd.read_csv(path)
+    return path, table["t"].to_numpy(), table["dx_true"].to_numpy()
+
+
+def test_an_exported_scenario_reads_back_exactly(user_csv):
+    """The file holds the scenario's seed-0 record to the last bit (17 digits), its jittered
+    stamps and its truth; read as a user's record it is irregular with the nominal step."""
+    path, t, dx = user_csv
+    realisation = signals.get_scenario("pendulum-500hz-jitter").realise(0)
+    table = pd.read_csv(path)
+    assert list(table.columns) == ["t", "x", "x_true", "dx_true", "ddx_true"]
+    np.testing.assert_array_equal(t, realisation.t)
+    np.testing.assert_array_equal(table["x"], realisation.x)
+    np.testing.assert_array_equal(dx, realisation.truth[1])
+    record = read_record(path, ["x"], "t", DT)
+    assert not record.uniform and record.dt_s == DT and record.x.shape == (2501, 1)
+    np.testing.assert_array_equal(record.x[:, 0], realisation.x)
 
 
 def test_recommend_writes_its_table_derivatives_and_figure(user_csv, tmp_path, capsys):
     path, _, truth = user_csv
     out = tmp_path / "advice"
-    code = main(["recommend", str(path), "--time", "t", "--dt", str(DT), "--orders", "1",
-                 "--methods", "spectral,savitzky_golay,butterworth", "--budget", "60",
+    code = main(["recommend", str(path), "--time", "t", "--column", "x", "--dt", str(DT),
+                 "--orders", "1", "--methods", "spectral,savitzky_golay,butterworth",
+                 "--budget", "60",
                  "--out", str(out)])  # fmt: skip
     assert code == 0
     printed = capsys.readouterr().out
-    assert "angle ẋ:" in printed
+    assert "x ẋ:" in printed
     for name in ("ranking.md", "ranking.csv", "derivatives.csv", "recommend.png"):
         assert (out / name).stat().st_size > 0
     ranking = (out / "ranking.md").read_text()
     assert "white-noise std" in ranking and "predicted RMSE" in ranking
     derivatives = pd.read_csv(out / "derivatives.csv")
     np.testing.assert_array_equal(derivatives["time_s"].to_numpy(), pd.read_csv(path)["t"])
-    estimate = derivatives["angle_d1"].to_numpy()
+    estimate = derivatives["x_d1"].to_numpy()
     valid = np.isfinite(estimate)
     assert valid.mean() > 0.9
     # the oscillation's ẋ peaks near 9.4: the recommended estimate is within 2 % of that
@@ -63,7 +71,7 @@ def test_recommend_writes_its_table_derivatives_and_figure(user_csv, tmp_path, c
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["--time", "time"], "no time column 'time'; the columns are t, angle"),
+        (["--time", "time"], "no time column 'time'; the columns are t, x, x_true"),
         (["--time", "t", "--column", "q"], "no column 'q'"),
         ([], "give the time column (--time NAME) or the step (--dt SECONDS)"),
         (["--time", "t", "--methods", "nonsense"], "--methods: unknown method 'nonsense'"),
