@@ -256,12 +256,12 @@ def validate(scenario: str, names=VALIDATION_METHODS, seed: int = 0, max_evaluat
     """Rows scoring :func:`recommend` on one uniformly sampled scenario as if its truth were
     unknown: for each order, the recommended method and setting, its predicted RMSE, its true
     interior RMSE on the record, and the best true RMSE any of ``names`` reaches tuned by the
-    oracle on the same record (the most a data-only choice could reach), and their ratio.
+    oracle on the same record (the most a data-only choice could reach).
 
     Beside it, PyNumDiff's data-only tuning (its loss, :func:`~diffbench.bench.tuning.
     no_truth_loss`, with its weight γ from a bandlimit guess: the band ``recommend`` read off
     the periodogram) tunes each of ``names`` and picks the one of lowest loss: its true RMSE
-    and ratio to the same oracle-best (``pynumdiff_*`` columns)."""
+    (``pynumdiff_*`` columns). Both ratios to the best known: :func:`with_best_known`."""
     from diffbench import signals
 
     realisation = signals.get_scenario(scenario).realise(seed)
@@ -298,19 +298,29 @@ def validate(scenario: str, names=VALIDATION_METHODS, seed: int = 0, max_evaluat
             "band_hz": guess_hz, "noise_std": advice.spectrum.noise_std,
             "recommended": name, "params": _settings(params),
             "predicted_rmse": predicted["predicted_rmse"], "true_rmse": true,
-            "oracle_best": best, "oracle_rmse": oracle[best], "ratio": true / oracle[best],
+            "oracle_best": best, "oracle_rmse": oracle[best],
             "pynumdiff_choice": "", "pynumdiff_params": "", "pynumdiff_rmse": math.nan,
-            "pynumdiff_ratio": math.nan,
         }  # fmt: skip
         finite = {k: v for k, v in by_pynumdiff.items() if math.isfinite(v.loss)}
         if finite:
             choice = min(finite, key=lambda k: finite[k].loss)
             chosen = _true_rmse(realisation, choice, finite[choice].params, order)
             row.update(pynumdiff_choice=choice, pynumdiff_params=_settings(finite[choice].params),
-                       pynumdiff_rmse=chosen, pynumdiff_ratio=chosen / oracle[best])  # fmt: skip
+                       pynumdiff_rmse=chosen)  # fmt: skip
         row["seconds"] = time.perf_counter() - start
-        rows.append(row)
+        rows.append(with_best_known(row))
     return rows
+
+
+def with_best_known(row: dict) -> dict:
+    """The row with ``best_rmse``, the lowest true RMSE known for these methods on the record:
+    the oracle's tunings, or the recommended or PyNumDiff's setting where one of them beat them
+    (the oracle's search is not exhaustive: a 9301-sample record, 150 evaluations), and the
+    ratios ``ratio`` and ``pynumdiff_ratio`` to it (never below 1)."""
+    known = [row["oracle_rmse"], row["true_rmse"], row.get("pynumdiff_rmse", math.nan)]
+    best = min(value for value in known if math.isfinite(value))
+    return {**row, "best_rmse": best, "ratio": row["true_rmse"] / best,
+            "pynumdiff_ratio": row.get("pynumdiff_rmse", math.nan) / best}  # fmt: skip
 
 
 def _true_rmse(realisation, name: str, params: dict, order: int) -> float:
@@ -326,13 +336,14 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
     from diffbench.bench.tables import markdown_table
 
     out.mkdir(parents=True, exist_ok=True)
+    rows = [with_best_known(row) for row in rows]
     frame = pd.DataFrame(rows).sort_values(["order", "scenario"]).reset_index(drop=True)
     frame.to_csv(out / "validation.csv", index=False)
     lines = ["# Data-only recommendation against the truth", ""]
     for order, group in frame.groupby("order"):
         symbol = "ẋ" if order == 1 else "ẍ"
         line = (
-            f"- {symbol}: true RMSE of the recommended setting over the oracle-best, median "
+            f"- {symbol}: true RMSE of the recommended setting over the best known, median "
             f"{group['ratio'].median():.3g}, worst {group['ratio'].max():.3g} "
             f"({group.loc[group['ratio'].idxmax(), 'scenario']}), over {len(group)} scenarios"
         )
@@ -350,7 +361,8 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
         "recommended": frame["recommended"], "settings": frame["params"],
         "predicted": frame["predicted_rmse"].map("{:.4g}".format),
         "true": frame["true_rmse"].map("{:.4g}".format),
-        "oracle-best": frame["oracle_best"] + " " + frame["oracle_rmse"].map("{:.4g}".format),
+        "oracle-tuned best": frame["oracle_best"] + " "
+        + frame["oracle_rmse"].map("{:.4g}".format),
         "ratio": frame["ratio"].map("{:.3g}".format),
     })  # fmt: skip
     if "pynumdiff_ratio" in frame:
@@ -364,13 +376,14 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
     note = (
         "Each scenario's seed-0 record, its truth unknown to `recommend` (band and noise read "
         "off its periodogram, lines fitted, every method tuned on surrogate records) but for "
-        "the samples to be scored (the scenario's interior); **oracle-best**: the best of the "
-        "same methods tuned by the oracle on the record itself (the most a choice could "
-        "reach); **ratio**: true / oracle-best. **PyNumDiff's choice**: each method tuned by "
-        "PyNumDiff's data-only loss (RMSE of the re-integrated derivative + γ·TV, γ from its "
-        "heuristic given the band `recommend` read off the periodogram as the cutoff guess), "
-        "the one of lowest loss, its true RMSE and ratio to the same oracle-best. Methods "
-        "offered: " + ", ".join(names) + "."
+        "the samples to be scored (the scenario's interior); **oracle-tuned best**: the best "
+        "of the same methods tuned by the oracle on the record itself (150 evaluations each); "
+        "**ratio**: true / the best known (the oracle-tuned best, or the recommended or "
+        "PyNumDiff's setting where it did better: the oracle's search is not exhaustive). "
+        "**PyNumDiff's choice**: each method tuned by PyNumDiff's data-only loss (RMSE of the "
+        "re-integrated derivative + γ·TV, γ from its heuristic given the band `recommend` "
+        "read off the periodogram as the cutoff guess), the one of lowest loss, its true RMSE "
+        "and ratio to the same best known. Methods offered: " + ", ".join(names) + "."
     )
     (out / "validation.md").write_text("\n".join(lines) + "\n\n" + markdown_table(shown)
                                        + "\n\n" + note + "\n")  # fmt: skip

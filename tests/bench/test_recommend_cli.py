@@ -86,24 +86,26 @@ def test_bad_usage_is_one_line_and_exit_code_2(user_csv, capsys, argv, message):
 
 def test_recommend_check_scores_the_choice_against_the_truth_and_resumes(tmp_path, capsys):
     """grid-gaussian-0.2-10ms (94 samples): recommended among spectral and Butterworth, the
-    choice's true RMSE over the oracle-best's (measured 1.04 for ẋ, 0.97 for ẍ: the oracle's
-    tuning budget is not exhaustive either); PyNumDiff's data-only tuning of the same two,
-    with the band read off the periodogram as its cutoff guess, 4.05 and 11.7. A rerun
-    recomputes nothing."""
+    choice's true RMSE over the best known (measured 1.04 for ẋ; for ẍ the recommended setting
+    beat the oracle's tuning by 3 %: 1); PyNumDiff's data-only tuning of the same two, with the
+    band read off the periodogram as its cutoff guess, 4.05 and 12.1. A rerun recomputes
+    nothing."""
     argv = ["recommend-check", "--scenarios", "grid-gaussian-0.2-10ms",
             "--methods", "spectral,butterworth", "--out", str(tmp_path)]  # fmt: skip
     assert main(argv) == 0
     directory = tmp_path / "recommend-validation"
     table = pd.read_csv(directory / "validation.csv")
     assert list(table["order"]) == [1, 2]
-    assert (table["ratio"] <= 1.25).all() and (table["ratio"] >= 0.9).all()
-    np.testing.assert_allclose(table["ratio"], table["true_rmse"] / table["oracle_rmse"])
-    # PyNumDiff's data-only tuning of the same methods, scored against the same oracle-best
+    # the best known: the oracle's tunings, or a data-only setting where it did better
+    best = np.minimum.reduce([table["oracle_rmse"], table["true_rmse"], table["pynumdiff_rmse"]])
+    np.testing.assert_allclose(table["best_rmse"], best)
+    np.testing.assert_allclose(table["ratio"], table["true_rmse"] / best)
+    assert (table["ratio"] <= 1.25).all() and (table["ratio"] >= 1.0).all()
+    assert (table["oracle_rmse"] <= 1.05 * best).all()  # the oracle's search misses by little
+    # PyNumDiff's data-only tuning of the same methods, against the same best known
     assert set(table["pynumdiff_choice"]) <= {"spectral", "butterworth"}
-    np.testing.assert_allclose(
-        table["pynumdiff_ratio"], table["pynumdiff_rmse"] / table["oracle_rmse"]
-    )
-    assert (table["pynumdiff_ratio"] >= 0.95).all()
+    np.testing.assert_allclose(table["pynumdiff_ratio"], table["pynumdiff_rmse"] / best)
+    assert (table["pynumdiff_ratio"] >= 1.0).all()
     rows = (directory / "rows.jsonl").read_text()
     assert "median" in (directory / "validation.md").read_text()
     capsys.readouterr()
