@@ -123,17 +123,17 @@ def test_surrogates_carry_the_record_s_lines_and_noise_with_exact_derivatives(pa
 
 def test_the_recommended_setting_is_near_the_oracle_s_on_the_paper_signal(paper):
     """No bandlimit given: the band (17 Hz), floor and lines come from the record; each
-    method is tuned on 2 surrogates and scored on 4. Measured on seed 0, true interior RMSE of
-    the recommended setting over the oracle-best of the same methods tuned on the truth:
-    ẋ 2.92 / 1.79 = 1.63 (spectral), ẍ 1.48 (spectral); other surrogate draws gave 1.40 and
-    1.30: two tuning surrogates leave the choice noisy. Issue 18 asks 1.25 in the median
-    over the grid: not met yet."""
+    method is tuned on 2 surrogates and scored on 4. True interior RMSE of the recommended
+    setting over the best of the same methods tuned by the oracle on the truth, measured on
+    surrogate seeds 0, 1, 2: ẋ 1.00, 0.98, 0.99, ẍ 0.99, 1.04, 0.94 (spectral each time; the
+    oracle's search is not exhaustive); predicted / true 0.97-1.35. Before the surrogates kept
+    the record's own lines (random phases): 1.63 and 1.48."""
     names = ["spectral", "savitzky_golay", "butterworth"]
     recommendation = recommend(paper.x, paper.dt_s, names=names)
     assert 15.0 <= recommendation.spectrum.band_hz <= 19.0
     table = recommendation.table
     assert set(table["method"]) == set(names) and table["rank"].notna().all()
-    for order, bound in ((1, 1.75), (2, 1.75)):
+    for order, bound in ((1, 1.15), (2, 1.15)):
         name, params = recommendation.best(order)
         estimate = methods.get(name, **params)(paper.x, paper.dt_s, (order,))
         scored = paper.interior & estimate.valid[order]
@@ -141,8 +141,8 @@ def test_the_recommended_setting_is_near_the_oracle_s_on_the_paper_signal(paper)
         oracle = min(tune(n, paper, order, "oracle").loss for n in names)
         assert true <= bound * oracle, (order, name, true, oracle)
         predicted = table[(table["order"] == order) & (table["method"] == name)].iloc[0]
-        # the prediction is an RMSE of the right size (surrogates: continuum near the band)
-        assert 0.5 * true <= predicted["predicted_rmse"] <= 2.0 * true
+        # the prediction is the RMSE to expect (fresh noise on the record's own lines)
+        assert 0.8 * true <= predicted["predicted_rmse"] <= 1.5 * true
 
 
 @pytest.mark.parametrize("step", ["1ms", "10ms"])
