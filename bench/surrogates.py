@@ -100,13 +100,15 @@ def surrogate_records(
     long = LENGTH_FACTOR * n_samples
     fine = np.fft.rfftfreq(long, dt)
     # every line is fitted (a disturbance's too: what it leaves would bias the signal's) and
-    # the signal's (in the band) kept; the noise above the band has the spectrum of the record
-    # less them (disturbances in it, not the reach of the signal lines' taper leakage)
+    # the signal's kept; the noise above the band has the spectrum of the record less them
+    # (disturbances in it, not the reach of the signal lines' taper leakage)
     line_hz, line_amplitude, line_phase, rest = fit_lines(
         x, dt, spectral_lines(spectrum, n_samples, up_to_hz=spectrum.frequency_hz[-1])[0]
     )
     fitted = 3 * line_hz.size + 2  # frequency, amplitude, phase per line; constant, slope
-    signal = line_hz <= spectrum.band_hz
+    # a line more than an octave above the band is a disturbance (the band's own rule); one
+    # just above the band's edge (its fitted frequency past the edge bin) is the signal's
+    signal = line_hz <= 2 * spectrum.band_hz
     line_omega = 2 * np.pi * line_hz[signal]
     t = np.arange(n_samples) * dt
     argument = np.outer(t, line_omega) + line_phase[signal]  # the record's own lines
@@ -220,12 +222,16 @@ def continuum_spectrum(
     tail count about as much as they do in the error. The band ends at the last bin standing
     above what noise alone reaches (a gamma variable of shape K and mean ν: ``FALSE_ALARM``
     per record) before an octave of quiet, and within an octave of the record's band (a line
-    far above it, a disturbance, is noise), less W; 0 Hz when nothing stands out (a record of
-    lines and noise). The floor ν: the median of the Hann periodogram of ``rest`` above that
-    band over ln 2 (lines removed, every bin above the continuum is noise: a short record's
-    floor is no longer taken from the few bins above its band), starting from the record's,
-    times N/(N − p) when ``fitted`` = p parameters were fitted to the record to leave ``rest``
-    (they took p/N of the noise's variance with them).
+    far above it, a disturbance, is noise); 0 Hz when nothing stands out (a record of lines
+    and noise). The tapers spread each component over ±W, so the band may end up to W past
+    the signal's last frequency, at a falling level: taking W off the edge instead cut the
+    upper half of a damped oscillation's peak, or a line left in the continuum, out of the
+    surrogates (their settings then smoothed 3 to 6 times too much). The floor ν: the median
+    of the Hann periodogram of ``rest`` above that band over ln 2 (lines removed, every bin
+    above the continuum is noise: a short record's floor is no longer taken from the few bins
+    above its band), starting from the record's, times N/(N − p) when ``fitted`` = p
+    parameters were fitted to the record to leave ``rest`` (they took p/N of the noise's
+    variance with them).
 
     Returns :math:`\hat P` on the record's rfft grid (interpolated), the band edge in Hz and
     ν.
@@ -249,7 +255,7 @@ def continuum_spectrum(
     least = DYNAMIC_RANGE * float(np.max(rest_power))  # the taper's reach, lines removed
     for _ in range(2):  # the edge under the record's floor, the floor above that edge, again
         last = band_edge(frequency[below], power[below], floor * quantile, 1)
-        edge = max(0.0, last - TIME_BANDWIDTH / (stretch.size * dt)) if last > 0 else 0.0
+        edge = last
         quiet = rest_power[(rest_frequency > edge) & (rest_frequency > 2 * rest_frequency[1])]
         if quiet.size >= 8:
             floor = float(np.median(quiet) / np.log(2)) * rest.size / (rest.size - fitted)
