@@ -168,3 +168,13 @@ def test_the_floor_under_the_lines_is_the_white_noise(step):
         ratios.append(np.sqrt(floor) / np.std(record.noise))
     np.testing.assert_allclose(ratios, 1.0, atol=tolerance)
     assert np.mean(ratios) == pytest.approx(1.0, abs=0.1)
+
+
+def test_the_surrogates_score_the_samples_asked_for(paper):
+    spectrum = record_spectrum(paper.x, paper.dt_s)
+    drawn = surrogate_records(spectrum, paper.x, paper.dt_s, count=2, scored=paper.interior)
+    for surrogate in drawn:
+        np.testing.assert_array_equal(surrogate.interior, paper.interior)
+    assert default_scored(1000).sum() == 900
+    with pytest.raises(ValueError, match="`scored` must be a boolean mask of 1001 samples"):
+        surrogate_records(spectrum, paper.x, paper.dt_s, count=1, scored=paper.interior[:10])
