@@ -63,14 +63,11 @@ def _context():
 
 def ordered_map(function: Callable[[Any], Any], items: Sequence[Any], jobs: int = 1) -> Iterator:
     """``function(item)`` for each item, in order, on ``jobs`` local processes (1: here)."""
-    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise ValueError(f"`jobs` must be an integer >= 1, got {jobs!r}")
-    if jobs == 1 or len(items) <= 1:
+    if _serial(items, jobs):
         for item in items:
             yield function(item)
         return
-    pool = ProcessPoolExecutor(max_workers=min(jobs, len(items)), mp_context=_context(),
-                               initializer=_worker_start, initargs=(os.getpid(),))  # fmt: skip
+    pool = _pool(jobs, len(items))
     try:
         futures = [pool.submit(function, item) for item in items]
         for future in futures:
@@ -84,20 +81,30 @@ def completed_map(
 ) -> Iterator[tuple[Any, Any]]:
     """``(item, function(item))`` for each item as soon as it is done, on ``jobs`` local
     processes (1: here, in order)."""
-    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise ValueError(f"`jobs` must be an integer >= 1, got {jobs!r}")
-    if jobs == 1 or len(items) <= 1:
+    if _serial(items, jobs):
         for item in items:
             yield item, function(item)
         return
-    pool = ProcessPoolExecutor(max_workers=min(jobs, len(items)), mp_context=_context(),
-                               initializer=_worker_start, initargs=(os.getpid(),))  # fmt: skip
+    pool = _pool(jobs, len(items))
     try:
         futures = {pool.submit(function, item): item for item in items}
         for future in as_completed(futures):
             yield futures[future], future.result()
     finally:
         stop(pool)
+
+
+def _serial(items: Sequence[Any], jobs: int) -> bool:
+    """Whether ``items`` run here (one job, or at most one item); ``jobs`` checked."""
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise ValueError(f"`jobs` must be an integer >= 1, got {jobs!r}")
+    return jobs == 1 or len(items) <= 1
+
+
+def _pool(jobs: int, n_items: int) -> ProcessPoolExecutor:
+    """Worker processes that ignore Ctrl-C and exit when this process dies."""
+    return ProcessPoolExecutor(max_workers=min(jobs, n_items), mp_context=_context(),
+                               initializer=_worker_start, initargs=(os.getpid(),))  # fmt: skip
 
 
 def stop(pool: ProcessPoolExecutor) -> None:

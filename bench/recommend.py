@@ -347,7 +347,7 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
             f"{group['ratio'].median():.3g}, worst {group['ratio'].max():.3g} "
             f"({group.loc[group['ratio'].idxmax(), 'scenario']}), over {len(group)} scenarios"
         )
-        peer = group["pynumdiff_ratio"].dropna() if "pynumdiff_ratio" in group else []
+        peer = group["pynumdiff_ratio"].dropna()
         if len(peer):
             line += (
                 f"; PyNumDiff's data-only tuning: median {peer.median():.3g}, worst "
@@ -365,14 +365,12 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
         + frame["oracle_rmse"].map("{:.4g}".format),
         "ratio": frame["ratio"].map("{:.3g}".format),
     })  # fmt: skip
-    if "pynumdiff_ratio" in frame:
-        shown["PyNumDiff's choice"] = [
-            f"{choice} {rmse:.4g}" if isinstance(choice, str) and choice else "—"
-            for choice, rmse in zip(frame["pynumdiff_choice"], frame["pynumdiff_rmse"],
-                                    strict=True)
-        ]  # fmt: skip
-        shown["its ratio"] = [f"{r:.3g}" if np.isfinite(r) else "—"
-                              for r in frame["pynumdiff_ratio"]]  # fmt: skip
+    # with_best_known gave every row its pynumdiff_ratio (NaN where PyNumDiff tuned nothing)
+    shown["PyNumDiff's choice"] = [
+        f"{choice} {rmse:.4g}" if isinstance(choice, str) and choice else "—"
+        for choice, rmse in zip(frame["pynumdiff_choice"], frame["pynumdiff_rmse"], strict=True)
+    ]
+    shown["its ratio"] = [f"{r:.3g}" if np.isfinite(r) else "—" for r in frame["pynumdiff_ratio"]]
     note = (
         "Each scenario's seed-0 record, its truth unknown to `recommend` (band and noise read "
         "off its periodogram, lines fitted, every method tuned on surrogate records) but for "

@@ -162,14 +162,15 @@ def spectral_lines(
     spectrum: RecordSpectrum, n_samples: int, up_to_hz: float | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Sinusoids in the band (or up to ``up_to_hz``: disturbances too): the peaks of the Hann
-    periodogram that stand ``LINE_RATIO`` times
-    above the noise floor and the median of the quieter side of their neighbourhood
-    (``LINE_NEIGHBOURS`` bins each side beyond the main lobe), their frequency refined by a
-    parabola through the log power of the peak bin and its neighbours, their amplitude from
-    the peak power corrected for the taper's gain off the bin centre.
+    periodogram that stand ``LINE_RATIO`` times above the noise floor and the median of the
+    quieter side of their neighbourhood (``LINE_NEIGHBOURS`` bins each side beyond the main
+    lobe), their frequency refined by a parabola through the log power of the peak bin and its
+    neighbours, their amplitude from the peak power corrected for the taper's gain off the
+    bin centre.
 
     Returns the frequencies (Hz), amplitudes, and a mask of the bins their main lobes cover
-    (taken out of the continuous part of the signal spectrum).
+    (the surrogates no longer use it: they fit the lines and measure the continuum on the
+    record less them, :func:`fit_lines`).
     """
     power, frequency = spectrum.sharp_power, spectrum.frequency_hz
     taper = window("hann", n_samples)  # the sharp periodogram's taper
@@ -251,11 +252,10 @@ def continuum_spectrum(
     # an octave of quiet above the record's band: what lies beyond is a disturbance (noise)
     below = frequency <= 2 * spectrum.band_hz
     rest_frequency, rest_power = periodogram(rest, dt, "hann")  # every line removed
-    floor, edge = spectrum.noise_floor, 0.0
+    floor = spectrum.noise_floor
     least = DYNAMIC_RANGE * float(np.max(rest_power))  # the taper's reach, lines removed
     for _ in range(2):  # the edge under the record's floor, the floor above that edge, again
-        last = band_edge(frequency[below], power[below], floor * quantile, 1)
-        edge = last
+        edge = band_edge(frequency[below], power[below], floor * quantile, 1)
         quiet = rest_power[(rest_frequency > edge) & (rest_frequency > 2 * rest_frequency[1])]
         if quiet.size >= 8:
             floor = float(np.median(quiet) / np.log(2)) * rest.size / (rest.size - fitted)

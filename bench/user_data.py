@@ -94,9 +94,7 @@ def read_record(
 
 
 def _read_table(path: Path) -> pd.DataFrame:
-    kind = FORMATS.get(path.suffix.lower())
-    if kind is None:
-        raise ValueError(f"{path}: unknown format {path.suffix!r}; give a .csv or .parquet file")
+    kind = _format_of(path)
     if not path.is_file():
         raise ValueError(f"{path}: no such file")
     if kind == "CSV":
@@ -132,9 +130,7 @@ def write_scenario_record(realisation, path: str | Path) -> Path:
     ``x_true``, ``dx_true``, ``ddx_true``, for scoring what is done with ``x`` afterwards.
     CSV numbers are written with 17 significant digits (they read back exactly)."""
     path = Path(path)
-    kind = FORMATS.get(path.suffix.lower())
-    if kind is None:
-        raise ValueError(f"{path}: write a .csv or .parquet file (got {path.suffix or 'none'})")
+    kind = _format_of(path)
     x = np.asarray(realisation.x)
     if x.ndim != 1:
         raise ValueError(f"{path}: only one-channel scenarios are written, got shape {x.shape}")
@@ -148,3 +144,11 @@ def write_scenario_record(realisation, path: str | Path) -> Path:
     else:
         frame.to_parquet(path, index=False)
     return path
+
+
+def _format_of(path: Path) -> str:
+    """``"CSV"`` or ``"Parquet"`` by the file's suffix; any other is refused."""
+    kind = FORMATS.get(path.suffix.lower())
+    if kind is None:
+        raise ValueError(f"{path}: unknown format {path.suffix!r}; give a .csv or .parquet file")
+    return kind
