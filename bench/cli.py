@@ -139,7 +139,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--methods",
         type=_name_list,
         default=None,
-        help="comma-separated method names or groups (all, native, peers; default: all)",
+        help="comma-separated method names or groups (all, native, peers, causal; default: all)",
     )
 
     plug = _Parser(add_help=False)
@@ -173,7 +173,9 @@ def build_parser() -> argparse.ArgumentParser:
         parents=[out, work, seeds, plug],
         help="tune methods on a task's tuning seed (stored, reused), score on other seeds",
     )
-    tune.add_argument("method", help="method names or groups (all, native, peers), comma-separated")
+    tune.add_argument(
+        "method", help="method names or groups (all, native, peers, causal), comma-separated"
+    )
     tune.add_argument("task", help="a signal task (see `diffbench list`)")
     tune.add_argument(
         "--criteria",
@@ -279,7 +281,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--methods",
         type=_name_list,
         default=["native"],
-        help="method names or groups (all, native, peers; default: native)",
+        help="method names or groups (all, native, peers, causal; default: native)",
     )
     advice.add_argument(
         "--orders", type=_orders, default=[1, 2], help="derivatives to recommend for (1,2)"
@@ -327,11 +329,11 @@ def build_parser() -> argparse.ArgumentParser:
 def _cmd_list(args) -> None:
     print("methods (name: parameter range [tuning range] default; presets)")
     plugins = methods.loaded_plugins()
-    for name in methods.available():
+    for name in methods.available(causal=None):
         cls = methods.method_class(name)
         shipped = [p for p in plugins if f"{cls.__module__}.".startswith(f"{p.module}.")]
         origin = f"; plugin {shipped[0].label}" if shipped else ""
-        kind = "linear" if cls.linear else "nonlinear"
+        kind = ("linear" if cls.linear else "nonlinear") + (", causal" if cls.causal else "")
         print(f"  {name}  ({kind}; runs {methods.package_of(name)}; {cls.reference}{origin}; "
               f"time stamps: {cls.time_stamps})")  # fmt: skip
         if cls.second_derivative != "native":
@@ -374,9 +376,10 @@ def _task(name: str):
 
 
 GROUPS = {
-    "all": "every registered method",
-    "native": "the methods diffbench implements",
+    "all": "every registered offline method",
+    "native": "the offline methods diffbench implements",
     "peers": "the methods other packages implement (the peers' adapters, plugins)",
+    "causal": "the causal methods (the online track)",
 }
 
 
@@ -384,6 +387,8 @@ def _expand(name: str) -> list[str]:
     """A method name, or every method of a group (:data:`GROUPS`)."""
     if name not in GROUPS:
         return [name]
+    if name == "causal":
+        return methods.available(causal=True)
     everything = methods.available()
     if name == "all":
         return everything
@@ -392,7 +397,7 @@ def _expand(name: str) -> list[str]:
 
 
 def _method_names(names) -> list[str] | None:
-    """Registered names of ``names`` (each a method or a group: all, native, peers)."""
+    """Registered names of ``names`` (each a method or a group: all, native, peers, causal)."""
     if names is None:
         return None
     with user_input("--methods: "):

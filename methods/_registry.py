@@ -214,6 +214,9 @@ class Method:
     name: ClassVar[str] = ""
     linear: ClassVar[bool] = True
     time_symmetric: ClassVar[bool] = True
+    causal: ClassVar[bool] = False
+    """Whether the estimate at a sample uses that sample and earlier ones only (the online
+    track, :class:`~diffbench.methods._causal.CausalMethod`)."""
     presets: ClassVar[Mapping[str, Preset]] = {}
     reference: ClassVar[str] = ""
     package: ClassVar[str | None] = None
@@ -542,10 +545,14 @@ def _package_of_class(cls: type[Method]) -> str:
         return f"{package} (version unknown)"
 
 
-def available() -> list[str]:
-    """Names of the registered methods, sorted (plugins included, see ``methods._plugins``)."""
+def available(causal: bool | None = False) -> list[str]:
+    """Names of the registered methods, sorted (plugins included, see ``methods._plugins``).
+
+    ``causal``: False (the default) the offline methods, which the offline benchmarks compare;
+    True the causal ones (the online track); None all of them.
+    """
     load_automatic_plugins()
-    return sorted(_REGISTRY)
+    return sorted(n for n, cls in _REGISTRY.items() if causal is None or cls.causal == causal)
 
 
 def method_class(name: str) -> type[Method]:
