@@ -457,7 +457,7 @@ def _report(task, store: Store, out: Path) -> list[Path]:
             f"no stored results of {task.name} in {store.directory}; run "
             f"`diffbench run {task.name} --out {out}` first"
         )
-    written = task.report(cells, store.tunings_frame(), out / task.name)
+    written = task.report(cells, store.tunings_frame(), out / task.folder)
     current = provenance()["git_rev"]
     others = sorted(r[:12] for r in set(cells["git_rev"]) - {current})
     if others:

@@ -348,3 +348,29 @@ def save_figure(fig, path: Path, *, tight: bool = True) -> Path:
     fig.savefig(path, dpi=120)
     pyplot().close(fig)
     return path
+
+
+def write_online_figure(table: pd.DataFrame, path: Path, title: str) -> Path:
+    """Delay-compensated RMSE against delay, one panel per derivative order: every setting of
+    each causal method (faint) and its front (joined), from :func:`reports.online_table`."""
+    plt = pyplot()
+    orders = list(dict.fromkeys(table["order"]))
+    fig, axes = plt.subplots(1, len(orders), figsize=(6.0 * len(orders), 4.6), squeeze=False)
+    styles = method_styles(sorted(set(table["method"])))
+    for axis, order in zip(axes[0], orders, strict=True):
+        mine = table[table["order"] == order].dropna(subset=["delay (ms)"])
+        for name, group in mine.groupby("method"):
+            style = styles[name]
+            delay = group["delay (ms)"].abs()
+            axis.scatter(delay, group["RMSE delay-compensated"], color=style.color,
+                         marker=style.marker, alpha=0.3, s=18)  # fmt: skip
+            front = group[group["front"]].assign(delay=delay).sort_values("delay")
+            axis.plot(front["delay"], front["RMSE delay-compensated"], marker=style.marker,
+                      label=name, **style.line())  # fmt: skip
+        axis.set_yscale("log")
+        axis.set_xlabel("|delay| (ms)")
+        axis.set_ylabel(f"{order} RMSE, delay-compensated")
+        axis.grid(True, which="both", alpha=0.3)
+        axis.legend(fontsize=8)
+    fig.suptitle(title)
+    return save_figure(fig, path)

@@ -451,3 +451,92 @@ def dfki_report(cells: pd.DataFrame, directory: Path, spec) -> list[Path]:
         "base parameters.",
     )
     return written
+
+
+ONLINE_COLUMNS = (
+    ("delay (ms)", "delay_s", 1e3),
+    ("phase delay (ms)", "phase_delay_s", 1e3),
+    ("RMSE at the time", "rmse", 1.0),
+    ("RMSE delay-compensated", "aligned_rmse", 1.0),
+    ("noise gain", "noise_gain", 1.0),
+    ("interior estimated", "coverage", 1.0),
+)
+ONLINE_LEGEND = (
+    "**RMSE at the time**: the online estimate at t_k against x⁽ⁿ⁾(t_k) on the interior; "
+    "**delay**: the shift of the truth that best matches the estimate (whole steps within "
+    "±0.1 s, refined by a parabola); **RMSE delay-compensated**: the error at that shift; "
+    "**phase delay** (linear methods): the lag at 0.1 % of Nyquist, from the frequency "
+    "response; **noise gain**: RMS of (method on the noisy record − method on the clean "
+    "one) / RMS of the noise. A **front** point is one that no other setting of the same "
+    "method beats in both delay and delay-compensated RMSE. Means over the seeds."
+)
+
+
+def online_table(cells: pd.DataFrame) -> pd.DataFrame:
+    """One row per entry and derivative order (1, 2): the means over seeds of the online
+    scores, and ``front`` (on its method's Pareto front of |delay| and compensated RMSE)."""
+    from diffbench.bench.online import pareto_front
+
+    summary = tables.summarise(cells)
+    labelled = tables.label_entries(tables.entries(cells))
+    records = []
+    for order in (1, 2):
+        mine = summary[summary["order"] == order].set_index([*tables.ENTRY_KEYS, "metric"])
+        for _, entry in labelled.iterrows():
+            key = (entry["method"], entry["params"], entry["role"])
+            record = {"method": entry["method"], "setting": entry["setting"].removeprefix(
+                "variant: "), "order": ORDER_SYMBOLS[order]}  # fmt: skip
+            for label, metric, scale in ONLINE_COLUMNS:
+                row = (*key, metric)
+                record[label] = float(mine.loc[row, "mean"]) * scale if row in mine.index else (
+                    float("nan"))  # fmt: skip
+            record["seeds"] = int(mine.loc[(*key, "rmse"), "seeds"]) if (*key, "rmse") in (
+                mine.index) else 0  # fmt: skip
+            records.append(record)
+    table = pd.DataFrame(records)
+    table["front"] = False
+    for _, group in table.groupby(["method", "order"]):
+        scored = group.dropna(subset=["delay (ms)", "RMSE delay-compensated"])
+        front = pareto_front(scored["delay (ms)"], scored["RMSE delay-compensated"])
+        table.loc[scored.index[front], "front"] = True
+    return table
+
+
+def _online_shown(table: pd.DataFrame) -> pd.DataFrame:
+    shown = table[["method", "setting", "order"]].copy()
+    for label, _, _ in ONLINE_COLUMNS:
+        shown[label] = [f"{v:.3g}" if np.isfinite(v) else "—" for v in table[label]]
+    return shown
+
+
+def online_report(task: str, description: str, cells: pd.DataFrame, directory: Path) -> list[Path]:
+    """``sweep`` (every setting), ``front`` (each method's Pareto front), ``best`` (each
+    method's least RMSE at the time) and the error-against-delay figure of an online task."""
+    from diffbench.bench.figures import write_online_figure
+
+    table = online_table(cells)
+    seeds = _seeds_phrase(cells)
+    written = tables.write_report(
+        directory, "sweep", table, _online_shown(table),
+        f"`{task}`: every setting of each causal method (means over {seeds})",
+        f"{description}\n\n{ONLINE_LEGEND}",
+    )  # fmt: skip
+    front = table[table["front"]].sort_values(["order", "method", "delay (ms)"])
+    written += tables.write_report(
+        directory, "front", front, _online_shown(front),
+        f"`{task}`: the error-against-delay front of each causal method (means over {seeds})",
+        ONLINE_LEGEND,
+    )  # fmt: skip
+    scored = table.dropna(subset=["RMSE at the time"])
+    best = scored.loc[scored.groupby(["order", "method"])["RMSE at the time"].idxmin()]
+    best = best.sort_values(["order", "RMSE at the time"])
+    written += tables.write_report(
+        directory, "best", best, _online_shown(best),
+        f"`{task}`: each causal method at its setting of least error at the time of the "
+        f"estimate (means over {seeds})",
+        "The online choice: a controller acts on the estimate when it is made, so its error "
+        f"then is what counts. {ONLINE_LEGEND}",
+    )  # fmt: skip
+    written.append(write_online_figure(table, directory / "error_vs_delay.png",
+                                       f"`{task}`: error against delay ({seeds})"))  # fmt: skip
+    return written

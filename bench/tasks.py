@@ -59,6 +59,11 @@ class Task:
             entries.append(entry)
         return entries
 
+    @property
+    def folder(self) -> str:
+        """The folder under the output directory its report is written to (its name)."""
+        return self.name
+
     def longest_record(self) -> tuple[int, float] | None:
         """``(samples, dt_s)`` of the longest record a method is handed (None: unknown)."""
         return None
@@ -301,6 +306,62 @@ class DfkiTask(Task):
         return reports.dfki_report(cells, directory, self.spec)
 
 
+@dataclass(frozen=True, eq=False)
+class OnlineTask(ScenarioTask):
+    """The online track on a signal scenario: each causal method at the settings of its sweep
+    (:func:`diffbench.bench.online.sweep_settings`), scored by the error of its estimate at
+    the time it is made, its delay, the error once that delay is compensated and its noise
+    gain (:func:`diffbench.bench.online.online_scores`); the report draws each method's
+    error against its delay."""
+
+    scenario: signals.Scenario
+    listed: bool = True
+    kind: ClassVar[str] = "online"
+    default_seeds: ClassVar[int] = 5
+
+    @property
+    def name(self) -> str:
+        return f"online-{self.scenario.name}"
+
+    @property
+    def folder(self) -> str:
+        """``online``: the online track's reports live together."""
+        return "online"
+
+    @property
+    def description(self) -> str:
+        return (f"The online track on `{self.scenario.name}`: the causal methods at sweeps of "
+                "their settings, scored on delay and on the error at the time of the "
+                "estimate.")  # fmt: skip
+
+    def lineup(self, method_names=None):
+        from diffbench.bench.online import sweep_settings
+
+        names = list(method_names) if method_names else methods.available(causal=True)
+        entries = []
+        for name in names:
+            if not methods.method_class(name).causal:
+                raise ValueError(f"{self.name} runs causal methods only; {name} is not causal "
+                                 "(see `diffbench list`)")  # fmt: skip
+            for label, params in sweep_settings(name):
+                full = {**methods.get(name, **params).params()}
+                entries.append(Entry(name, full, Role(origin="variant", preset="default",
+                                                      by="defaults", variant=label)))  # fmt: skip
+        return entries
+
+    def score(self, method, seed):
+        from diffbench.bench.online import online_scores
+
+        return online_scores(method, self.scenario.realise(seed))
+
+    def longest_record(self):
+        realisation = self.scenario.realise(0)
+        return realisation.x.shape[0], realisation.dt_s
+
+    def report(self, cells, tunings, directory):
+        return reports.online_report(self.name, self.description, cells, directory)
+
+
 def dfki_task(records) -> Task:
     """The DFKI identification task on ``records`` (packaged run numbers or paths of CSV files
     in the lab's layout, at least three), registered under its name (:class:`DfkiTask`)."""
@@ -335,6 +396,7 @@ def _register_builtins() -> None:
     for name in signals.available_scenarios():
         register_task(SignalTask(signals.get_scenario(name), listed=name not in grid))
     register_task(JacobiInfluenceTask(signals.get_scenario("paper-signal")))
+    register_task(OnlineTask(signals.get_scenario("paper-signal")))
     for name in robot2r.available_robot_scenarios():
         register_task(RobotSimTask(robot2r.get_robot_scenario(name)))
     register_task(DfkiTask())
