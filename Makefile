@@ -22,7 +22,8 @@ $(STAMP): pyproject.toml
 # (tvrdiff, rbfdiff, polydiff, rtsdiff, the splines and derivative's dense ones cost seconds a call).
 # On the paper signals, the native methods and the fast peers are also tuned on 10 seeds (400
 # evaluations per run), on the interior and on the whole record (edge treatments tuned too).
-# online-paper-signal runs the causal methods at sweeps of their settings (results/online/).
+# online-paper-signal runs the causal methods at sweeps of their settings, online-2r-loop the
+# same settings in the simulated robot's 1 kHz PD loop (both report in results/online/).
 # recommend-check scores the data-only recommendation on every uniformly sampled noisy
 # scenario (resumes from results/recommend-validation/rows.jsonl); the example recommends on
 # an exported record a user would have (recomputed each time, seeded: the same every time).
@@ -51,6 +52,7 @@ bench: $(STAMP)
 	$(BIN)/diffbench run robot-sim --seeds $(SEEDS) --jobs 2 --out results
 	$(BIN)/diffbench run identify-dfki --methods native,$(GRID_PEERS) --jobs 2 --out results
 	$(BIN)/diffbench run online-paper-signal --seeds 5 --jobs 2 --out results
+	$(BIN)/diffbench run online-2r-loop --seeds 3 --jobs 2 --out results
 	$(BIN)/diffbench grid --methods native,$(GRID_PEERS) --seeds 10 --jobs 2 --out results
 	$(BIN)/diffbench recommend-check --jobs 2 --out results
 	$(BIN)/diffbench export pendulum-500hz-jitter results/recommend-example/pendulum.csv

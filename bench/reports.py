@@ -540,3 +540,84 @@ def online_report(task: str, description: str, cells: pd.DataFrame, directory: P
     written.append(write_online_figure(table, directory / "error_vs_delay.png",
                                        f"`{task}`: error against delay ({seeds})"))  # fmt: skip
     return written
+
+
+LOOP_COLUMNS = (
+    ("q₁ tracking RMSE (rad)", "tracking_rmse", 1),
+    ("q₂ tracking RMSE (rad)", "tracking_rmse", 2),
+    ("q₁ tracking / exact", "tracking_ratio", 1),
+    ("q₂ tracking / exact", "tracking_ratio", 2),
+    ("τ₁ noise (N·m)", "torque_noise_rms", 1),
+    ("τ₂ noise (N·m)", "torque_noise_rms", 2),
+)
+LOOP_LEGEND = (
+    "**tracking RMSE**: q − q_d after the first 0.5 s; **/ exact**: over the same controller "
+    "fed the exact q̇ (same encoder readings); **τ noise**: RMS of the torque less that "
+    "controller's. **loop**: stable on every seed, or lost (tracking error past 0.5 rad) on "
+    "k of n seeds at the times given; the scores of a lost loop are left out. **best**: per "
+    "method, the setting stable on every seed whose tracking is within 10 % of the exact "
+    "controller's on both joints, of least τ₁ noise."
+)
+
+
+def loop_table(cells: pd.DataFrame) -> pd.DataFrame:
+    """One row per entry: stability over the seeds and the means of the loop scores."""
+    summary = tables.summarise(cells).set_index([*tables.ENTRY_KEYS, "metric", "order"])
+    labelled = tables.label_entries(tables.entries(cells))
+    records = []
+    for _, entry in labelled.iterrows():
+        key = (entry["method"], entry["params"], entry["role"])
+        mine = cells[(cells["method"] == key[0]) & (cells["params"] == key[1])
+                     & (cells["role"] == key[2])]  # fmt: skip
+        stable = mine[(mine["metric"] == "stable") & (mine["order"] == 1)]
+        lost = mine[(mine["metric"] == "lost_at_s") & (mine["order"] == 1)]["value"].dropna()
+        record = {"method": entry["method"], "setting": entry["setting"].removeprefix(
+            "variant: "), "seeds": len(stable)}  # fmt: skip
+        if lost.empty:
+            record["loop"] = "stable"
+        else:
+            times = ", ".join(f"{v:.2f}" for v in sorted(lost))
+            record["loop"] = f"lost on {len(lost)} of {len(stable)} seeds (at {times} s)"
+        for label, metric, joint in LOOP_COLUMNS:
+            row = (*key, metric, joint)
+            record[label] = float(summary.loc[row, "mean"]) if row in summary.index else np.nan
+        records.append(record)
+    return pd.DataFrame(records)
+
+
+def _loop_shown(table: pd.DataFrame) -> pd.DataFrame:
+    shown = table[["method", "setting", "loop"]].copy()
+    for label, _, _ in LOOP_COLUMNS:
+        shown[label] = [f"{v:.3g}" if np.isfinite(v) else "—" for v in table[label]]
+    return shown
+
+
+def loop_report(task: str, description: str, cells: pd.DataFrame, directory: Path) -> list[Path]:
+    """``loop`` (every setting, stable or not) and ``loop_best`` (each method's best stable
+    setting, or why it has none) of the in-the-loop task."""
+    table = loop_table(cells)
+    seeds = _seeds_phrase(cells)
+    written = tables.write_report(
+        directory, "loop", table, _loop_shown(table),
+        f"`{task}`: every setting of each causal method in the loop ({seeds})",
+        f"{description}\n\n{LOOP_LEGEND}",
+    )  # fmt: skip
+    best = []
+    for name, group in table.groupby("method", sort=True):
+        usable = group[(group["loop"] == "stable") & (group["q₁ tracking / exact"] <= 1.1)
+                       & (group["q₂ tracking / exact"] <= 1.1)]  # fmt: skip
+        if len(usable):
+            best.append(usable.loc[usable["τ₁ noise (N·m)"].idxmin()])
+        else:
+            stable = int((group["loop"] == "stable").sum())
+            best.append(pd.Series({"method": name, "setting": "—", "seeds": group["seeds"].max(),
+                                   "loop": f"no usable setting: {stable} of {len(group)} "
+                                   "settings stable, none tracking within 10 %" if stable else
+                                   f"unstable at all {len(group)} settings"}))  # fmt: skip
+    best = pd.DataFrame(best).sort_values("τ₁ noise (N·m)", na_position="last")
+    written += tables.write_report(
+        directory, "loop_best", best, _loop_shown(best),
+        f"`{task}`: each causal method at its best setting in the loop ({seeds})",
+        LOOP_LEGEND,
+    )  # fmt: skip
+    return written

@@ -362,6 +362,48 @@ class OnlineTask(ScenarioTask):
         return reports.online_report(self.name, self.description, cells, directory)
 
 
+@dataclass(frozen=True, eq=False)
+class LoopTask(Task):
+    """In the loop: the simulated 2R robot's PD controller at 1 kHz fed the velocity each
+    causal method estimates online from the encoder, at the settings of its sweep, against the
+    exact-velocity controller (:mod:`diffbench.bench.loop`); a setting that loses the loop is
+    reported as unstable."""
+
+    listed: bool = True
+    kind: ClassVar[str] = "online (in the loop)"
+    default_seeds: ClassVar[int] = 3
+    name: str = "online-2r-loop"
+    loop: object = None
+
+    @property
+    def spec(self):
+        """The experiment (:class:`~diffbench.bench.loop.LoopSpec`; its defaults unless
+        ``loop`` gives one)."""
+        from diffbench.bench.loop import LoopSpec
+
+        return LoopSpec() if self.loop is None else self.loop
+
+    @property
+    def folder(self) -> str:
+        return "online"
+
+    @property
+    def description(self) -> str:
+        return (f"In the loop: {self.spec.name}; each causal method estimates q̇ online for "
+                "the velocity term, against the same controller fed the exact q̇.")  # fmt: skip
+
+    def lineup(self, method_names=None):
+        return OnlineTask.lineup(self, method_names)
+
+    def score(self, method, seed):
+        from diffbench.bench.loop import loop_scores
+
+        return loop_scores(self.spec, method, seed)
+
+    def report(self, cells, tunings, directory):
+        return reports.loop_report(self.name, self.description, cells, directory)
+
+
 def dfki_task(records) -> Task:
     """The DFKI identification task on ``records`` (packaged run numbers or paths of CSV files
     in the lab's layout, at least three), registered under its name (:class:`DfkiTask`)."""
@@ -397,6 +439,7 @@ def _register_builtins() -> None:
         register_task(SignalTask(signals.get_scenario(name), listed=name not in grid))
     register_task(JacobiInfluenceTask(signals.get_scenario("paper-signal")))
     register_task(OnlineTask(signals.get_scenario("paper-signal")))
+    register_task(LoopTask())
     for name in robot2r.available_robot_scenarios():
         register_task(RobotSimTask(robot2r.get_robot_scenario(name)))
     register_task(DfkiTask())

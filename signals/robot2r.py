@@ -205,6 +205,27 @@ class Motion:
     tau: np.ndarray
 
 
+def joint_accelerations(
+    q1: float, q2: float, v1: float, v2: float, tau1: float, tau2: float, parameters,
+    link1_length_m: float, coulomb_slope: float,
+) -> tuple[float, float]:  # fmt: skip
+    """q̈ = M(q)⁻¹ (τ − h(q, q̇)) for one state, in scalar arithmetic (the simulators' inner
+    loop: :func:`mass_matrix` and :func:`bias_torques` written out, Cramer's rule for the
+    2×2 solve). ``parameters``: the 8 base parameters as floats."""
+    zz1r, zz2, mx2, my2, fv1, fc1, fv2, fc2 = parameters
+    c2, s2 = math.cos(q2), math.sin(q2)
+    coupling = link1_length_m * (mx2 * c2 - my2 * s2)
+    skew = link1_length_m * (mx2 * s2 + my2 * c2)  # -d(coupling)/dq2
+    m11, m12, m22 = zz1r + zz2 + 2 * coupling, zz2 + coupling, zz2
+    two_over_pi = 2 / math.pi
+    h1 = -skew * (2 * v1 * v2 + v2 * v2) + fv1 * v1 + fc1 * two_over_pi * math.atan(
+        coulomb_slope * v1)  # fmt: skip
+    h2 = skew * v1 * v1 + fv2 * v2 + fc2 * two_over_pi * math.atan(coulomb_slope * v2)
+    r1, r2 = tau1 - h1, tau2 - h2
+    det = m11 * m22 - m12 * m12
+    return (m22 * r1 - m12 * r2) / det, (m11 * r2 - m12 * r1) / det
+
+
 def simulate_pd(
     trajectory: PointToPoint, parameters, link1_length_m: float, coulomb_slope: float,
     bandwidth_hz: float, step_s: float, sample_every: int, initial_velocity=(0.0, 0.0),
@@ -222,24 +243,16 @@ def simulate_pd(
     steps = round(trajectory.duration_s / step_s)
     # The reference at every step and half step, computed once (vectorised).
     desired, rate, _ = trajectory(np.arange(2 * steps + 1) * (step_s / 2))
-    zz1r, zz2, mx2, my2, fv1, fc1, fv2, fc2 = (float(v) for v in parameters)
+    values = tuple(float(v) for v in parameters)
     length, slope = float(link1_length_m), float(coulomb_slope)
     kp1, kp2, kd1, kd2 = float(kp[0]), float(kp[1]), float(kd[0]), float(kd[1])
-    two_over_pi = 2 / math.pi
 
     def derivative(index, q1, q2, v1, v2):
         # Scalar arithmetic: the RK4 loop runs 4 of these per step.
         tau1 = kp1 * (desired[index, 0] - q1) + kd1 * (rate[index, 0] - v1)
         tau2 = kp2 * (desired[index, 1] - q2) + kd2 * (rate[index, 1] - v2)
-        c2, s2 = math.cos(q2), math.sin(q2)
-        coupling = length * (mx2 * c2 - my2 * s2)
-        skew = length * (mx2 * s2 + my2 * c2)  # -d(coupling)/dq2
-        m11, m12, m22 = zz1r + zz2 + 2 * coupling, zz2 + coupling, zz2
-        h1 = -skew * (2 * v1 * v2 + v2 * v2) + fv1 * v1 + fc1 * two_over_pi * math.atan(slope * v1)
-        h2 = skew * v1 * v1 + fv2 * v2 + fc2 * two_over_pi * math.atan(slope * v2)
-        r1, r2 = tau1 - h1, tau2 - h2
-        det = m11 * m22 - m12 * m12
-        return v1, v2, (m22 * r1 - m12 * r2) / det, (m11 * r2 - m12 * r1) / det
+        a1, a2 = joint_accelerations(q1, q2, v1, v2, tau1, tau2, values, length, slope)
+        return v1, v2, a1, a2
 
     q1, q2 = (float(v) for v in trajectory.waypoints[0])
     v1, v2 = (float(v) for v in initial_velocity)
