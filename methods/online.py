@@ -251,6 +251,10 @@ class CausalJacobi(CausalMethod):
     }
     reference = "Mboup, Join, Fliess 2009; Liu, Gibaru, Perruquetti 2011"
 
+    @classmethod
+    def irrelevant_params(cls, order: int) -> tuple[str, ...]:
+        return ("window_s",) if order == 2 else ("accel_window_s",)
+
     def _window(self, order: int) -> tuple[str, float]:
         return (
             ("accel_window_s", self.accel_window_s) if order == 2 else ("window_s", self.window_s)
