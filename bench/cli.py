@@ -335,7 +335,7 @@ def _cmd_list(args) -> None:
         origin = f"; plugin {shipped[0].label}" if shipped else ""
         kind = ("linear" if cls.linear else "nonlinear") + (", causal" if cls.causal else "")
         print(f"  {name}  ({kind}; runs {methods.package_of(name)}; {cls.reference}{origin}; "
-              f"time stamps: {cls.time_stamps})")  # fmt: skip
+              f"time stamps: {'uniform only' if cls.causal else cls.time_stamps})")  # fmt: skip
         if cls.second_derivative != "native":
             print(f"      ẍ: {cls.second_derivative}")
         for spec in methods.params_of(cls):

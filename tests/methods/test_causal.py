@@ -263,3 +263,15 @@ def test_the_frequency_response_is_what_a_long_sinusoid_shows(name):
         scale = (2 * np.pi * frequency_hz) ** order
         np.testing.assert_allclose(estimate[order][late], expected[late], rtol=0,
                                    atol=1e-8 * scale)  # fmt: skip
+
+
+@pytest.mark.parametrize("name", CAUSAL)
+def test_irregular_time_stamps_are_refused_as_not_causal(name):
+    t = np.cumsum(np.r_[0.0, np.full(299, DT)])
+    t[100:] += 0.3 * DT
+    with pytest.raises(ValueError, match="takes uniformly sampled records only"):
+        methods.get(name)(_record(300), t=t)
+    # uniform stamps take the uniform path: the same as `dt`
+    uniform = np.arange(300) * DT
+    np.testing.assert_array_equal(methods.get(name)(_record(300), t=uniform)[1],
+                                  methods.get(name)(_record(300), DT)[1])  # fmt: skip
