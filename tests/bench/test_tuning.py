@@ -87,7 +87,10 @@ def test_grid_and_brent_path_finds_a_one_dimensional_optimum():
 def test_tuned_parameters_lie_in_the_declared_ranges_and_beat_or_match_the_preset(name):
     scenario = signals.get_scenario("paper-signal")
     tuned_on = scenario.realise(10_000)
-    result = tuning.tune(name, tuned_on, 2, "oracle")
+    # a short search is enough to beat the presets (kalman's steady gains cost ~0.5 s for
+    # each new bandwidth: 20 evaluations per model order)
+    budget = 20 if name == "kalman" else 60
+    result = tuning.tune(name, tuned_on, 2, "oracle", max_evaluations=budget)
     cls = methods.method_class(name)
     for spec in methods.params_of(cls):
         if spec.name in result.params:
