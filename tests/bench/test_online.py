@@ -109,3 +109,20 @@ def test_the_online_task_refuses_an_offline_method(tmp_path, capsys):
             "--out", str(tmp_path)]  # fmt: skip
     assert main(argv) == 2
     assert "jacobi is not causal" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", ["causal_jacobi", "alpha_beta_gamma", "levant"])
+def test_causal_methods_are_tuned_like_the_others(name):
+    from diffbench import signals
+    from diffbench.bench import tuning
+
+    scenario = signals.get_scenario("paper-signal")
+    result = tuning.tune(name, scenario.realise(10_000), 1, "oracle", max_evaluations=30)
+    tuned, default = methods.get(name, **result.params), methods.get(name)
+    scored = scenario.realise(0)
+    errors = {}
+    for label, method in (("tuned", tuned), ("default", default)):
+        estimate = method(scored.x, scored.dt_s, orders=(1,))
+        mask = scored.interior & estimate.valid[1]
+        errors[label] = np.sqrt(np.mean((estimate[1][mask] - scored.truth[1][mask]) ** 2))
+    assert errors["tuned"] < 0.9 * errors["default"]
