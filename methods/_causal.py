@@ -76,6 +76,30 @@ class CausalMethod(Method):
         raise NotImplementedError
 
 
+class CausalFirMethod(CausalMethod):
+    r"""A causal method that is one FIR filter per derivative order: ``taps(order, dt)``,
+    :math:`\hat x^{(n)}_k = \sum_j b_j x_{k-j}` (lag 0 first); the first ``len(taps) - 1``
+    samples have no estimate."""
+
+    def taps(self, order: int, dt: float) -> np.ndarray:
+        raise NotImplementedError
+
+    def warmup(self, order: int, dt: float) -> int:
+        return self.taps(order, dt).size - 1
+
+    def _response(self, frequency_hz, dt, order):
+        return causal_fir_response(self.taps(order, dt), frequency_hz, dt)
+
+    def _start(self, first, dt, orders):
+        return {order: fir_state(self.taps(order, dt), first.shape) for order in orders}
+
+    def _advance(self, state, x, dt, orders):
+        values, after = {}, {}
+        for order in orders:
+            values[order], after[order] = run_fir(self.taps(order, dt), x, state[order])
+        return values, after
+
+
 def _masked(method: CausalMethod, values: dict, seen: int, dt: float) -> tuple[dict, dict]:
     """NaN on the samples still inside each order's warm-up (``seen`` samples came before)."""
     valid = {}

@@ -11,6 +11,7 @@ import numpy as np
 from scipy import signal as sps
 
 from diffbench.methods._causal import (
+    CausalFirMethod,
     CausalMethod,
     causal_fir_response,
     fir_state,
@@ -42,7 +43,7 @@ def backward_difference_weights(order: int, accuracy: int) -> np.ndarray:
 
 
 @register("backward_difference")
-class BackwardDifference(CausalMethod):
+class BackwardDifference(CausalFirMethod):
     """Backward finite differences: the derivative at the newest sample of the polynomial
     through the last n + p samples (no smoothing).
 
@@ -72,26 +73,11 @@ class BackwardDifference(CausalMethod):
     def taps(self, order: int, dt: float) -> np.ndarray:
         return backward_difference_weights(order, self.accuracy) / dt**order
 
-    def warmup(self, order: int, dt: float) -> int:
-        return self.taps(order, dt).size - 1
-
     def min_samples(self, dt: float) -> int:
         return self.accuracy + 2
 
     def exact_degree(self, order: int) -> float | None:
         return order + self.accuracy - 1 if order else math.inf
-
-    def _response(self, frequency_hz, dt, order):
-        return causal_fir_response(self.taps(order, dt), frequency_hz, dt)
-
-    def _start(self, first, dt, orders):
-        return {order: fir_state(self.taps(order, dt), first.shape) for order in orders}
-
-    def _advance(self, state, x, dt, orders):
-        values, after = {}, {}
-        for order in orders:
-            values[order], after[order] = run_fir(self.taps(order, dt), x, state[order])
-        return values, after
 
 
 @register("causal_butterworth")
@@ -176,7 +162,7 @@ class CausalButterworth(CausalMethod):
 
 
 @register("causal_jacobi")
-class CausalJacobi(CausalMethod):
+class CausalJacobi(CausalFirMethod):
     """Causal Jacobi differentiator: the weighted least-squares polynomial on the window of
     the last T seconds, differentiated at :math:`t - \\delta`.
 
@@ -281,23 +267,8 @@ class CausalJacobi(CausalMethod):
             order, self.kappa, self.mu, self.q, half, self.delay_s / dt, dt, name
         )
 
-    def warmup(self, order: int, dt: float) -> int:
-        return self.taps(order, dt).size - 1
-
     def exact_degree(self, order: int) -> float | None:
         return order + self.q if self.delay_s == 0 else None
-
-    def _response(self, frequency_hz, dt, order):
-        return causal_fir_response(self.taps(order, dt), frequency_hz, dt)
-
-    def _start(self, first, dt, orders):
-        return {order: fir_state(self.taps(order, dt), first.shape) for order in orders}
-
-    def _advance(self, state, x, dt, orders):
-        values, after = {}, {}
-        for order in orders:
-            values[order], after[order] = run_fir(self.taps(order, dt), x, state[order])
-        return values, after
 
 
 @functools.lru_cache(maxsize=256)
