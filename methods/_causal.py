@@ -3,8 +3,10 @@ and every method runs on a stream, its state carried from one chunk of samples t
 
 A causal method implements three pure pieces:
 
-- ``_start(first, dt, orders)``: the state before any sample, from the first sample alone
-  (the only one known when the stream starts);
+- ``_start(first, dt, orders, samples)``: the state before any sample, from the first
+  sample alone (the only one known when the stream starts); ``samples`` is the record's
+  length in a batch call, None on a stream (a method may prepare data-independent parts,
+  such as gains, for that many samples, or once for all);
 - ``_advance(state, x, dt, orders) -> (values, state)``: the estimates of ``orders`` at the
   samples ``x`` (time on axis 0) and the state after them;
 - ``warmup(order, dt)``: how many samples pass before the estimate of ``order`` is valid (a
@@ -65,11 +67,13 @@ class CausalMethod(Method):
         return Stream(self, dt, orders, channels)
 
     def _estimate(self, x, dt, orders):
-        state = self._start(x[0], dt, orders)
+        state = self._start(x[0], dt, orders, x.shape[0])
         values, _ = self._advance(state, x, dt, orders)
         return _masked(self, values, 0, dt)
 
-    def _start(self, first: np.ndarray, dt: float, orders: tuple[int, ...]) -> Any:
+    def _start(
+        self, first: np.ndarray, dt: float, orders: tuple[int, ...], samples: int | None
+    ) -> Any:
         raise NotImplementedError
 
     def _advance(self, state: Any, x: np.ndarray, dt: float, orders: tuple[int, ...]):
@@ -90,7 +94,7 @@ class CausalFirMethod(CausalMethod):
     def _response(self, frequency_hz, dt, order):
         return causal_fir_response(self.taps(order, dt), frequency_hz, dt)
 
-    def _start(self, first, dt, orders):
+    def _start(self, first, dt, orders, samples):
         return {order: fir_state(self.taps(order, dt), first.shape) for order in orders}
 
     def _advance(self, state, x, dt, orders):
@@ -140,7 +144,7 @@ class Stream:
         stream has channels)."""
         chunk = self._check(x)
         if self._state is None:
-            self._state = self.method._start(chunk[0], self.dt, self.orders)
+            self._state = self.method._start(chunk[0], self.dt, self.orders, None)
         values, self._state = self.method._advance(self._state, chunk, self.dt, self.orders)
         values, valid = _masked(self.method, values, self.samples, self.dt)
         self.samples += chunk.shape[0]

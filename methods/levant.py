@@ -117,7 +117,7 @@ class Levant(CausalMethod):
                 f"order {self.differentiator_order}, {max(orders)} was asked for; raise it"
             )
 
-    def _start(self, first, dt, orders):
+    def _start(self, first, dt, orders, samples):
         self._check_orders(orders)
         n = self.differentiator_order
         state = np.zeros((n + 1, *first.shape))

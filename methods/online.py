@@ -24,7 +24,12 @@ from diffbench.methods._validation import check_frequency
 from diffbench.methods.butterworth import _butter_sos
 from diffbench.methods.finite_difference import fornberg_weights
 from diffbench.methods.jacobi_kernel import half_width
-from diffbench.methods.kalman import covariance_recursion, initial_state, polynomial_model
+from diffbench.methods.kalman import (
+    _steady_gains,
+    covariance_recursion,
+    initial_state,
+    polynomial_model,
+)
 
 SOURCE_OURS = "diffbench's choice for the paper signal (4/9/15 Hz, 1 kHz), not tuned"
 
@@ -141,7 +146,7 @@ class CausalButterworth(CausalMethod):
         _, gain = sps.sosfreqz(self._sos(dt), worN=frequency_hz, fs=1.0 / dt)
         return gain * causal_fir_response(self._difference(order, dt), frequency_hz, dt)
 
-    def _start(self, first, dt, orders):
+    def _start(self, first, dt, orders, samples):
         zi = sps.sosfilt_zi(self._sos(dt))  # (sections, 2): steady state for a unit input
         filter_state = zi.reshape(zi.shape + (1,) * first.ndim) * first
         differences = {
@@ -289,11 +294,26 @@ def _causal_jacobi_taps(order, kappa, mu, q, half, delay_steps, dt, name) -> np.
     return taps
 
 
+MIN_GAIN_STEPS = 1024
+"""Fewest steps of the covariance recursion run at once for the Kalman filter's gains."""
+
+STREAM_GAIN_STEPS = 10**6
+"""Steps of the covariance recursion a stream runs at its start (it stops once steady)."""
+
+
+def _power_of_two(samples: int) -> int:
+    return max(MIN_GAIN_STEPS, 1 << (samples - 1).bit_length())
+
+
 @functools.lru_cache(maxsize=64)
-def _kalman_gains(model_order: int, dt: float, bandwidth_hz: float):
+def _kalman_gains(model_order: int, dt: float, bandwidth_hz: float, steps: int):
+    """The model and the filter's gains for the first ``steps`` samples (fewer when they turn
+    steady before: then the last is the steady gain). The recursion depends on no data, so
+    its first steps are the same for any ``steps``: a stream that outgrows them recomputes
+    with more and gets the same gains."""
     model = polynomial_model(model_order, dt, bandwidth_hz)
     _, covariance0 = initial_state(np.zeros((4 * model.states, 1)), model.states)
-    return model, covariance0, covariance_recursion(model, covariance0, 10**6)
+    return model, covariance_recursion(model, covariance0, steps)
 
 
 @register("kalman_filter")
@@ -338,26 +358,35 @@ class KalmanFilter(CausalMethod):
     def check_step(self, dt: float) -> None:
         check_frequency("bandwidth_hz", self.bandwidth_hz, dt)
 
-    def _gains(self, dt: float):
-        return _kalman_gains(self.model_order, dt, self.bandwidth_hz)
+    def _gains(self, dt: float, steps: int):
+        """The model and the gains for the first ``steps`` samples (or until steady: at low
+        ``bandwidth_hz * dt`` the recursion takes 10^5 steps and more to settle, which a short
+        record never needs; the streams ask for powers of two)."""
+        return _kalman_gains(self.model_order, dt, self.bandwidth_hz, steps)
 
     def _response(self, frequency_hz, dt, order):
-        model, _, gains = self._gains(dt)
-        steady = gains.steady_filter
+        model = polynomial_model(self.model_order, dt, self.bandwidth_hz)
+        steady = _steady_gains(self.model_order, dt, self.bandwidth_hz).steady_filter
         transition = model.F - np.outer(steady, model.F[0])
         output = np.zeros(model.states)
         output[order] = model.to_derivatives[order]
         return state_space_response(transition, steady, output, frequency_hz, dt)
 
-    def _start(self, first, dt, orders):
-        model, _, _ = self._gains(dt)
-        mean = np.zeros((model.states, *first.shape))
+    def _start(self, first, dt, orders, samples):
+        mean = np.zeros((self.model_order + 1, *first.shape))
         mean[0] = first
-        return mean, 0
+        # a record's gains as far as it goes; a stream's until steady, once, before its first
+        # sample (no push then stalls on the recursion)
+        steps = STREAM_GAIN_STEPS if samples is None else _power_of_two(samples)
+        return mean, 0, (*self._gains(dt, steps), steps)
 
     def _advance(self, state, x, dt, orders):
-        model, _, gains = self._gains(dt)
-        mean, k = state
+        mean, k, known = state  # known: (model, gains, the steps they were asked for)
+        model, gains, steps = known
+        if k + x.shape[0] > len(gains.filter_gains) == steps:  # not steady yet: more
+            steps = _power_of_two(k + x.shape[0])
+            known = (*self._gains(dt, steps), steps)
+            model, gains, _ = known
         transition, recorded = model.F, gains.filter_gains
         estimates = np.empty((x.shape[0], *mean.shape))
         steady = gains.steady_filter.reshape((-1,) + (1,) * (mean.ndim - 1))
@@ -372,7 +401,7 @@ class KalmanFilter(CausalMethod):
             estimates[i] = mean
         scale = model.to_derivatives
         values = {order: estimates[:, order] * scale[order] for order in orders}
-        return values, (mean, k + x.shape[0])
+        return values, (mean, k + x.shape[0], known)
 
 
 @register("alpha_beta_gamma")
@@ -428,7 +457,7 @@ class AlphaBetaGamma(CausalMethod):
         output[order] = 1.0
         return state_space_response(closed, gain, output, frequency_hz, dt)
 
-    def _start(self, first, dt, orders):
+    def _start(self, first, dt, orders, samples):
         state = np.zeros((3, *first.shape))
         state[0] = first
         return state, True

@@ -275,3 +275,15 @@ def test_irregular_time_stamps_are_refused_as_not_causal(name):
     uniform = np.arange(300) * DT
     np.testing.assert_array_equal(methods.get(name)(_record(300), t=uniform)[1],
                                   methods.get(name)(_record(300), DT)[1])  # fmt: skip
+
+
+def test_the_kalman_filter_s_gains_for_a_record_and_for_a_stream_agree_bit_for_bit():
+    """A record gets the gains as far as it goes (a power of two of steps), a stream all of
+    them until steady at its start: the recursion is the same, so are the estimates."""
+    method = methods.get("kalman_filter", bandwidth_hz=0.5)  # settles after ~1e4 steps
+    x = _record(3000)
+    batch = method(x, DT)
+    for size in (1, 1000):
+        stream = method.stream(DT)
+        pieces = [stream.push(x[i : i + size])[1] for i in range(0, x.shape[0], size)]
+        np.testing.assert_array_equal(np.concatenate(pieces), batch[1])
