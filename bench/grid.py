@@ -58,13 +58,15 @@ def _grid_tasks() -> list[tuple[str, float, float, str | None]]:
 def tuning_jobs(
     orders: Sequence[int] = (1, 2), names: Sequence[str] | None = None
 ) -> list[TuningJob]:
-    """Each method of ``names`` (default: every registered one), for each order, on each grid
-    task (oracle, seed 10000)."""
+    """Each method of ``names`` (default: every registered offline one), for each order, on
+    each grid task (oracle, seed 10000); causal methods only on the uniformly sampled
+    tasks."""
     return [
         TuningJob(task, name, "oracle", int(order), TUNING_SEED, None, BUDGET)
         for task in task_names()
         for name in (names or methods.available())
         for order in orders
+        if not (methods.method_class(name).causal and signals.get_scenario(task).sampling)
     ]
 
 

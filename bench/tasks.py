@@ -156,6 +156,12 @@ class SignalTask(ScenarioTask):
         realisation = self.scenario.realise(0)
         return realisation.x.shape[0], realisation.dt_s
 
+    def refusal(self, method):
+        """Also: a causal method on irregular time stamps (it takes uniform sampling only)."""
+        if method.causal and self.scenario.sampling:
+            return "a causal method takes uniformly sampled records only; this one is not"
+        return super().refusal(method)
+
     def report(self, cells, tunings, directory):
         return reports.signal_report(self.name, self.description, cells, tunings, directory)
 

@@ -126,3 +126,20 @@ def test_causal_methods_are_tuned_like_the_others(name):
         mask = scored.interior & estimate.valid[1]
         errors[label] = np.sqrt(np.mean((estimate[1][mask] - scored.truth[1][mask]) ** 2))
     assert errors["tuned"] < 0.9 * errors["default"]
+
+
+def test_causal_methods_are_left_out_of_irregularly_sampled_tasks_by_name(capsys):
+    from diffbench import signals
+    from diffbench.bench import grid, tasks
+
+    task = tasks.get_task("grid-gaussian-0.2-10ms-jitter")
+    entries = task.lineup(["causal_jacobi", "spectral"])
+    assert [entry.method for entry in entries] == ["spectral"]
+    message = "causal_jacobi: not run on grid-gaussian-0.2-10ms-jitter: a causal method takes"
+    assert message in capsys.readouterr().err
+    jobs = grid.tuning_jobs(orders=(1,), names=["causal_jacobi", "spectral"])
+    causal = {job.task for job in jobs if job.method == "causal_jacobi"}
+    every = {job.task for job in jobs if job.method == "spectral"}
+    irregular = {name for name in every if signals.get_scenario(name).sampling}
+    assert len(irregular) == 4  # the jittered and dropped-sample ones
+    assert causal == every - irregular
