@@ -53,7 +53,7 @@ bench: $(STAMP)
 	$(BIN)/diffbench run identify-dfki --methods native,$(GRID_PEERS) --jobs 2 --out results
 	$(BIN)/diffbench run online-paper-signal --seeds 5 --jobs 2 --out results
 	$(BIN)/diffbench run online-2r-loop --seeds 3 --jobs 2 --out results
-	$(BIN)/diffbench grid --methods native,$(GRID_PEERS) --seeds 10 --jobs 2 --out results
+	$(BIN)/diffbench grid --methods native,$(GRID_PEERS),causal --seeds 10 --jobs 2 --out results
 	$(BIN)/diffbench recommend-check --jobs 2 --out results
 	$(BIN)/diffbench export pendulum-500hz-jitter results/recommend-example/pendulum.csv
 	$(BIN)/diffbench recommend results/recommend-example/pendulum.csv --time t --column x \
