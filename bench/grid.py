@@ -173,9 +173,66 @@ def _with_handling(name: str, irregular: bool) -> str:
     return f"{name} (resampled)" if methods.method_class(name).time_stamps != "native" else name
 
 
+def causal_price(rows: pd.DataFrame, order: int) -> pd.DataFrame:
+    """Per uniformly sampled grid task, on the interior: the best causal entry (least mean
+    RMSE of the derivative of ``order`` over the seeds, among the entries tuned for it), the
+    best offline one, and ``ratio`` = causal / offline: what estimating online costs. Empty
+    when no causal method was run."""
+    tuned_for = (rows["tuned_order"] == order).fillna(False).astype(bool)
+    scored = rows[tuned_for & (rows["metric"] == "rmse") & (rows["order"] == order)
+                  & (rows["region"] == "interior")]  # fmt: skip
+    means = scored.groupby(["task", "method", "params"], sort=True)["value"].mean().reset_index()
+    means["causal"] = [methods.method_class(m).causal if m in methods.available(causal=None)
+                       else False for m in means["method"]]  # fmt: skip
+    records = []
+    for kind, level, step, name in _grid_tasks():
+        mine = means[means["task"] == name]
+        online, offline = mine[mine["causal"]], mine[~mine["causal"]]
+        if name is None or online.empty or offline.empty:
+            continue
+        best_online = online.loc[online["value"].idxmin()]
+        best_offline = offline.loc[offline["value"].idxmin()]
+        records.append({
+            "noise": kind, "level": level, "step_ms": step * 1e3, "task": name,
+            "causal": best_online["method"], "causal_rmse": best_online["value"],
+            "offline": best_offline["method"], "offline_rmse": best_offline["value"],
+            "ratio": best_online["value"] / best_offline["value"],
+        })  # fmt: skip
+    return pd.DataFrame(records)
+
+
+def write_causal_price(rows: pd.DataFrame, directory: Path) -> list[Path]:
+    """``causal_price`` (Markdown grid + CSV): per noise, level and step, the best causal
+    method against the best offline one, for ẋ and ẍ (nothing when no causal method ran)."""
+    frames = [causal_price(rows, order).assign(order=ORDER_SYMBOLS[order]) for order in (1, 2)]
+    frames = [frame for frame in frames if not frame.empty]
+    if not frames:
+        return []
+    table = pd.concat(frames, ignore_index=True)
+    shown = []
+    for (symbol, kind, level), group in table.groupby(["order", "noise", "level"], sort=False):
+        line = {"n": symbol, "noise": kind, "level": f"{level:g}"}
+        for step in GRID_STEPS_S:
+            match = group[abs(group["step_ms"] - step * 1e3) < 1e-9]
+            line[f"Ts = {step * 1e3:g} ms"] = "—" if match.empty else (
+                f"{match.iloc[0]['causal']} {match.iloc[0]['causal_rmse']:.3g} = "
+                f"{match.iloc[0]['ratio']:.3g}× {match.iloc[0]['offline']}")  # fmt: skip
+        shown.append(line)
+    return tables.write_report(
+        directory, "causal_price", table, pd.DataFrame(shown),
+        "What estimating online costs: per grid task, the best causal method's interior RMSE "
+        "against the best offline method's (each tuned by the oracle on seed "
+        f"{TUNING_SEED}, scored on the others)",
+        "Each cell: the best causal method and its RMSE, then its ratio to the best offline "
+        "method (named last). Causal methods use the samples up to t only; the uniformly "
+        "sampled tasks only (they take no irregular time stamps).",
+    )  # fmt: skip
+
+
 def write_winners(rows: pd.DataFrame, directory: Path) -> list[Path]:
     """``winners_velocity`` and ``winners_acceleration`` (Markdown grid + full CSV): per task
-    and step, the winner on the interior and on the whole record side by side."""
+    and step, the winner on the interior and on the whole record side by side; and
+    ``causal_price`` when causal methods ran (:func:`write_causal_price`)."""
     written = []
     for order in (1, 2):
         table = pd.concat([winners(rows, order, region) for region in REGION_COLUMNS])
@@ -212,4 +269,4 @@ def write_winners(rows: pd.DataFrame, directory: Path) -> list[Path]:
             "the packages that computed them: " + packages_line(rows) + "."
         )
         written += tables.write_report(directory, stem, table, pd.DataFrame(shown), title, legend)
-    return written
+    return written + write_causal_price(rows, directory)

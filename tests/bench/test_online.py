@@ -3,6 +3,7 @@
 from types import SimpleNamespace
 
 import numpy as np
+import pandas as pd
 import pytest
 from scipy import signal as sps
 
@@ -89,7 +90,6 @@ def test_the_online_task_runs_stores_and_reports(tmp_path, capsys):
     folder = tmp_path / "online"
     for name in ("sweep.md", "front.csv", "best.md", "error_vs_delay.png"):
         assert (folder / name).stat().st_size > 0
-    import pandas as pd
 
     best = pd.read_csv(folder / "best.csv")
     assert set(best["method"]) == {"causal_jacobi", "backward_difference"}
@@ -143,3 +143,21 @@ def test_causal_methods_are_left_out_of_irregularly_sampled_tasks_by_name(capsys
     irregular = {name for name in every if signals.get_scenario(name).sampling}
     assert len(irregular) == 4  # the jittered and dropped-sample ones
     assert causal == every - irregular
+
+
+def test_the_price_of_causality_is_the_best_causal_rmse_over_the_best_offline():
+    from diffbench.bench import grid
+
+    records = []
+    for method, values in (("kalman_filter", (2.0, 4.0)), ("causal_jacobi", (5.0, 5.0)),
+                           ("spectral", (1.0, 1.0)), ("jacobi", (1.5, 2.5))):  # fmt: skip
+        for seed, value in enumerate(values):
+            records.append({"task": "grid-gaussian-0.2-1ms", "method": method, "params": "{}",
+                            "tuned_order": 1.0, "metric": "rmse", "order": 1,
+                            "region": "interior", "seed": seed, "value": value})  # fmt: skip
+    price = grid.causal_price(pd.DataFrame(records), 1)
+    assert len(price) == 1
+    row = price.iloc[0]
+    assert (row["causal"], row["offline"]) == ("kalman_filter", "spectral")
+    assert row["ratio"] == pytest.approx(3.0)
+    assert grid.causal_price(pd.DataFrame(records), 2).empty  # nothing tuned for ẍ
