@@ -64,8 +64,9 @@ lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 
+# two worker processes (pytest-xdist): the suite takes about 6 min on 2 cores, 10 in one
 test: lint
-	$(BIN)/python -m pytest -q --benchmark-disable
+	$(BIN)/python -m pytest -q -n 2 --benchmark-disable
 
 # pip install . beside PyPI's `bench` 2.8 and `signals` 0.0.2 (same top-level names as our
 # folders), then `diffbench list` and the tests against that installation.
@@ -78,7 +79,7 @@ check-install:
 	$(CLASH_VENV)/bin/python -m pip install --quiet '.[test,peers,data]'
 	$(CLASH_VENV)/bin/diffbench list > /dev/null
 	$(CLASH_VENV)/bin/python -c 'import diffbench.signals, signals; assert signals.__file__ != diffbench.signals.__file__'
-	$(CLASH_VENV)/bin/python -m pytest -q --benchmark-disable -p no:cacheprovider
+	$(CLASH_VENV)/bin/python -m pytest -q -n 2 --benchmark-disable -p no:cacheprovider
 
 clean-venv:
 	rm -rf $(VENV)
