@@ -420,7 +420,7 @@ class AlphaBetaGamma(CausalMethod):
     steady gains of least squares with the past discounted by θ per step (memory
     :math:`T_m` = ``memory_s``), all three closed-loop poles at θ: the discrete-time
     high-gain observer of the chain of three integrators with its poles placed together at
-    :math:`e^{-\Delta t/T_m}`. A constant acceleration is
+    :math:`e^{-\\Delta t/T_m}`. A constant acceleration is
     followed with no steady-state error (the start transient decays as θ^k); it starts at the
     first sample with zero velocity and acceleration.
 
