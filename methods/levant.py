@@ -127,15 +127,8 @@ class Levant(CausalMethod):
     def _advance(self, state, x, dt, orders):
         self._check_orders(orders)
         n = self.differentiator_order
-        lambdas = np.array(GAINS[n])
+        scale, coefficients, powers, steps, propagate = _step_constants(n, self.lipschitz, dt)
         j = np.arange(n + 1)
-        scale = lambdas * self.lipschitz ** ((j + 1) / (n + 1))  # λ_j L^{(j+1)/(n+1)}
-        coefficients = dt ** (j + 1) * scale  # c_j
-        powers = (n - j) / (n + 1)
-        steps = dt**j  # first row of M
-        # M = sum_j dt^j A^j: (M v)_i = sum_{l >= i} dt^(l-i) v_l
-        propagate = np.array([[dt ** (c - r) if c >= r else 0.0 for c in range(n + 1)]
-                              for r in range(n + 1)])  # fmt: skip
         flat = state.reshape(n + 1, -1).copy()
         samples = x.reshape(x.shape[0], -1)
         states = np.empty((x.shape[0], n + 1, flat.shape[1]))
@@ -152,6 +145,26 @@ class Levant(CausalMethod):
             row = weights[order] * dt ** (j - order)
             values[order] = np.tensordot(states, row, axes=([1], [0])).reshape(x.shape)
         return values, flat.reshape(state.shape)
+
+
+@functools.lru_cache(maxsize=64)
+def _step_constants(n: int, lipschitz: float, dt: float) -> tuple[np.ndarray, ...]:
+    r"""What every implicit step of :class:`Levant` uses, computed once per setting (a stream
+    pushing one sample at a time would otherwise rebuild them at each push): the injection
+    scales :math:`\lambda_j L^{(j+1)/(n+1)}`, the coefficients :math:`c_j`, the powers
+    :math:`(n-j)/(n+1)`, the first row of M and M itself."""
+    lambdas = np.array(GAINS[n])
+    j = np.arange(n + 1)
+    scale = lambdas * lipschitz ** ((j + 1) / (n + 1))  # λ_j L^{(j+1)/(n+1)}
+    coefficients = dt ** (j + 1) * scale  # c_j
+    powers = (n - j) / (n + 1)
+    steps = dt**j  # first row of M
+    # M = sum_j dt^j A^j: (M v)_i = sum_{l >= i} dt^(l-i) v_l
+    propagate = np.array([[dt ** (c - r) if c >= r else 0.0 for c in range(n + 1)]
+                          for r in range(n + 1)])  # fmt: skip
+    for array in (scale, coefficients, powers, steps, propagate):
+        array.setflags(write=False)
+    return scale, coefficients, powers, steps, propagate
 
 
 def _injection(residual: float, coefficients, scale, powers) -> np.ndarray:
