@@ -182,8 +182,8 @@ def causal_price(rows: pd.DataFrame, order: int) -> pd.DataFrame:
     scored = rows[tuned_for & (rows["metric"] == "rmse") & (rows["order"] == order)
                   & (rows["region"] == "interior")]  # fmt: skip
     means = scored.groupby(["task", "method", "params"], sort=True)["value"].mean().reset_index()
-    means["causal"] = [methods.method_class(m).causal if m in methods.available(causal=None)
-                       else False for m in means["method"]]  # fmt: skip
+    causal = set(methods.available(causal=True))
+    means["causal"] = means["method"].isin(causal)
     records = []
     for kind, level, step, name in _grid_tasks():
         mine = means[means["task"] == name]

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from diffbench.bench import tables
+from diffbench.bench import loop, online, tables
 from diffbench.bench.roles import ORDER_SYMBOLS
 from diffbench.bench.stats import ranking
 
@@ -464,8 +464,9 @@ ONLINE_COLUMNS = (
 ONLINE_LEGEND = (
     "**RMSE at the time**: the online estimate at t_k against x⁽ⁿ⁾(t_k) on the interior; "
     "**delay**: the shift of the truth that best matches the estimate (whole steps within "
-    "±0.1 s, refined by a parabola); **RMSE delay-compensated**: the error at that shift; "
-    "**phase delay** (linear methods): the lag at 0.1 % of Nyquist, from the frequency "
+    f"±{online.MAX_SHIFT_S:g} s, refined by a parabola); **RMSE delay-compensated**: the error "
+    f"at that shift; **phase delay** (linear methods): the lag at "
+    f"{online.PHASE_FREQUENCY_FRACTION * 100:g} % of Nyquist, from the frequency "
     "response; **noise gain**: RMS of (method on the noisy record − method on the clean "
     "one) / RMS of the noise. A **front** point is one that no other setting of the same "
     "method beats in both delay and delay-compensated RMSE. Means over the seeds."
@@ -502,11 +503,17 @@ def online_table(cells: pd.DataFrame) -> pd.DataFrame:
     return table
 
 
-def _online_shown(table: pd.DataFrame) -> pd.DataFrame:
-    shown = table[["method", "setting", "order"]].copy()
-    for label, _, _ in ONLINE_COLUMNS:
+def _shown(table: pd.DataFrame, keys: list[str], columns) -> pd.DataFrame:
+    """``keys`` as they are, then each of ``columns`` (its label first) to 3 significant
+    digits, ``—`` where there is no number."""
+    shown = table[keys].copy()
+    for label, *_ in columns:
         shown[label] = [f"{v:.3g}" if np.isfinite(v) else "—" for v in table[label]]
     return shown
+
+
+def _online_shown(table: pd.DataFrame) -> pd.DataFrame:
+    return _shown(table, ["method", "setting", "order"], ONLINE_COLUMNS)
 
 
 def online_report(task: str, description: str, cells: pd.DataFrame, directory: Path) -> list[Path]:
@@ -550,13 +557,16 @@ LOOP_COLUMNS = (
     ("τ₁ noise (N·m)", "torque_noise_rms", 1),
     ("τ₂ noise (N·m)", "torque_noise_rms", 2),
 )
+LOOP_TRACKING_MARGIN = 0.1
+"""A loop's best setting tracks within this fraction of the exact controller on both joints."""
 LOOP_LEGEND = (
-    "**tracking RMSE**: q − q_d after the first 0.5 s; **/ exact**: over the same controller "
-    "fed the exact q̇ (same encoder readings); **τ noise**: RMS of the torque less that "
-    "controller's. **loop**: stable on every seed, or lost (tracking error past 0.5 rad) on "
-    "k of n seeds at the times given; the scores of a lost loop are left out. **best**: per "
-    "method, the setting stable on every seed whose tracking is within 10 % of the exact "
-    "controller's on both joints, of least τ₁ noise."
+    f"**tracking RMSE**: q − q_d after the first {loop.LoopSpec.settle_s:g} s; **/ exact**: "
+    "over the same controller fed the exact q̇ (same encoder readings); **τ noise**: RMS of "
+    "the torque less that controller's. **loop**: stable on every seed, or lost (tracking "
+    f"error past {loop.LoopSpec.lost_rad:g} rad) on k of n seeds at the times given; the scores "
+    "of a lost loop are left out. **best**: per method, the setting stable on every seed "
+    f"whose tracking is within {LOOP_TRACKING_MARGIN * 100:g} % of the exact controller's on both "
+    "joints, of least τ₁ noise."
 )
 
 
@@ -586,10 +596,7 @@ def loop_table(cells: pd.DataFrame) -> pd.DataFrame:
 
 
 def _loop_shown(table: pd.DataFrame) -> pd.DataFrame:
-    shown = table[["method", "setting", "loop"]].copy()
-    for label, _, _ in LOOP_COLUMNS:
-        shown[label] = [f"{v:.3g}" if np.isfinite(v) else "—" for v in table[label]]
-    return shown
+    return _shown(table, ["method", "setting", "loop"], LOOP_COLUMNS)
 
 
 def loop_report(task: str, description: str, cells: pd.DataFrame, directory: Path) -> list[Path]:
@@ -604,15 +611,17 @@ def loop_report(task: str, description: str, cells: pd.DataFrame, directory: Pat
     )  # fmt: skip
     best = []
     for name, group in table.groupby("method", sort=True):
-        usable = group[(group["loop"] == "stable") & (group["q₁ tracking / exact"] <= 1.1)
-                       & (group["q₂ tracking / exact"] <= 1.1)]  # fmt: skip
+        limit = 1 + LOOP_TRACKING_MARGIN
+        usable = group[(group["loop"] == "stable") & (group["q₁ tracking / exact"] <= limit)
+                       & (group["q₂ tracking / exact"] <= limit)]  # fmt: skip
         if len(usable):
             best.append(usable.loc[usable["τ₁ noise (N·m)"].idxmin()])
         else:
             stable = int((group["loop"] == "stable").sum())
             best.append(pd.Series({"method": name, "setting": "—", "seeds": group["seeds"].max(),
                                    "loop": f"no usable setting: {stable} of {len(group)} "
-                                   "settings stable, none tracking within 10 %" if stable else
+                                   "settings stable, none tracking within "
+                                   f"{LOOP_TRACKING_MARGIN * 100:g} %" if stable else
                                    f"unstable at all {len(group)} settings"}))  # fmt: skip
     best = pd.DataFrame(best).sort_values("τ₁ noise (N·m)", na_position="last")
     written += tables.write_report(

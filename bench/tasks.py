@@ -312,6 +312,25 @@ class DfkiTask(Task):
         return reports.dfki_report(cells, directory, self.spec)
 
 
+def sweep_lineup(task: str, method_names=None) -> list[Entry]:
+    """The online tasks' entries: each causal method of ``method_names`` (default: all) at
+    every setting of its sweep (:func:`diffbench.bench.online.sweep_settings`); an offline
+    method is refused by name."""
+    from diffbench.bench.online import sweep_settings
+
+    names = list(method_names) if method_names else methods.available(causal=True)
+    entries = []
+    for name in names:
+        if not methods.method_class(name).causal:
+            raise ValueError(f"{task} runs causal methods only; {name} is not causal "
+                             "(see `diffbench list`)")  # fmt: skip
+        for label, params in sweep_settings(name):
+            full = methods.get(name, **params).params()
+            entries.append(Entry(name, full, Role(origin="variant", preset="default",
+                                                  by="defaults", variant=label)))  # fmt: skip
+    return entries
+
+
 @dataclass(frozen=True, eq=False)
 class OnlineTask(ScenarioTask):
     """The online track on a signal scenario: each causal method at the settings of its sweep
@@ -341,19 +360,7 @@ class OnlineTask(ScenarioTask):
                 "estimate.")  # fmt: skip
 
     def lineup(self, method_names=None):
-        from diffbench.bench.online import sweep_settings
-
-        names = list(method_names) if method_names else methods.available(causal=True)
-        entries = []
-        for name in names:
-            if not methods.method_class(name).causal:
-                raise ValueError(f"{self.name} runs causal methods only; {name} is not causal "
-                                 "(see `diffbench list`)")  # fmt: skip
-            for label, params in sweep_settings(name):
-                full = {**methods.get(name, **params).params()}
-                entries.append(Entry(name, full, Role(origin="variant", preset="default",
-                                                      by="defaults", variant=label)))  # fmt: skip
-        return entries
+        return sweep_lineup(self.name, method_names)
 
     def score(self, method, seed):
         from diffbench.bench.online import online_scores
@@ -399,7 +406,7 @@ class LoopTask(Task):
                 "the velocity term, against the same controller fed the exact q̇.")  # fmt: skip
 
     def lineup(self, method_names=None):
-        return OnlineTask.lineup(self, method_names)
+        return sweep_lineup(self.name, method_names)
 
     def score(self, method, seed):
         from diffbench.bench.loop import loop_scores
