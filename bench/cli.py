@@ -326,6 +326,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 # --- commands ------------------------------------------------------------------------------
+STAMPS_SHOWN = {"uniform": "uniform only"}
+"""How `diffbench list` words a method's handling of time stamps, where not its own name."""
+
+
 def _cmd_list(args) -> None:
     print("methods (name: parameter range [tuning range] default; presets)")
     plugins = methods.loaded_plugins()
@@ -335,7 +339,7 @@ def _cmd_list(args) -> None:
         origin = f"; plugin {shipped[0].label}" if shipped else ""
         kind = ("linear" if cls.linear else "nonlinear") + (", causal" if cls.causal else "")
         print(f"  {name}  ({kind}; runs {methods.package_of(name)}; {cls.reference}{origin}; "
-              f"time stamps: {'uniform only' if cls.causal else cls.time_stamps})")  # fmt: skip
+              f"time stamps: {STAMPS_SHOWN.get(cls.time_stamps, cls.time_stamps)})")  # fmt: skip
         if cls.second_derivative != "native":
             print(f"      ẍ: {cls.second_derivative}")
         for spec in methods.params_of(cls):

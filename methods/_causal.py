@@ -42,14 +42,11 @@ class CausalMethod(Method):
     causal: ClassVar[bool] = True
     time_symmetric: ClassVar[bool] = False
 
-    def _estimate_at(self, x, times, orders):
-        raise ValueError(
-            f"{self.name} is causal and takes uniformly sampled records only (resampling "
-            "irregular time stamps onto a grid reads the next sample: not causal); give `dt`, "
-            "or stamps within 1e-6 of uniform"
-        )
-
-    time_stamps: ClassVar[str] = "native"
+    time_stamps: ClassVar[str] = "uniform"
+    uniform_only_reason: ClassVar[str] = (
+        "is causal and takes uniformly sampled records only (resampling irregular time stamps "
+        "onto a grid reads the next sample: not causal)"
+    )
 
     def warmup(self, order: int, dt: float) -> int:
         """Samples at the start of a stream whose estimate of ``order`` is not valid (NaN)."""

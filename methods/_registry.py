@@ -34,8 +34,9 @@ from diffbench.methods._validation import (
 
 _REGISTRY: dict[str, type[Method]] = {}
 
-TIME_STAMPS = ("native", "resampled")
-"""How a method may take irregular time stamps (``Method.time_stamps``)."""
+TIME_STAMPS = ("native", "resampled", "uniform")
+"""How a method may take irregular time stamps (``Method.time_stamps``): natively, by
+resampling, or not at all (uniformly sampled records only)."""
 
 PARAM_KINDS = (None, "window", "frequency", "duration")
 """What a parameter may declare itself to be (``Param.kind``): nothing in particular, a window
@@ -253,6 +254,11 @@ class Method:
         if is_uniform(times):
             return self._uniform(x, step, orders)
         orders = check_orders(orders)
+        if self.time_stamps == "uniform":
+            raise ValueError(
+                f"{self.name} {self.uniform_only_reason}; give `dt`, or stamps within 1e-6 of "
+                "uniform"
+            )
         if self.time_stamps == "native":
             adapted = self.at_step(step)
             adapted._check_longest(x.shape[0], step)
@@ -277,7 +283,10 @@ class Method:
 
     time_stamps: ClassVar[str] = "resampled"
     """How irregular time stamps are handled: ``"native"`` (the method's own
-    ``_estimate_at``) or ``"resampled"`` (:mod:`diffbench.methods._time_stamps`)."""
+    ``_estimate_at``), ``"resampled"`` (:mod:`diffbench.methods._time_stamps`) or
+    ``"uniform"`` (refused, ``uniform_only_reason`` saying why)."""
+
+    uniform_only_reason: ClassVar[str] = "takes uniformly sampled records only"
 
     def _estimate_at(self, x: np.ndarray, times: np.ndarray, orders) -> tuple[dict, dict]:
         raise NotImplementedError(f"{self.name} has no estimate at irregular times")
