@@ -121,6 +121,9 @@ def sweep_settings(name: str) -> list[tuple[str, dict]]:
                 for m in (2, 3) for f in _log_grid(2.0, 100.0, 8)]  # fmt: skip
     if name == "alpha_beta_gamma":
         return [(f"T_m = {w:g} s", {"memory_s": w}) for w in _log_grid(0.002, 0.2, 8)]
+    if name == "high_gain_observer":
+        return [(f"m = {m}, ε = {e:g} s", {"observer_dimension": m, "epsilon_s": e})
+                for m in (3, 4, 5) for e in _log_grid(0.001, 0.05, 8)]  # fmt: skip
     if name == "levant":
         return [(f"n = 2, L = {v:g}", {"differentiator_order": 2, "lipschitz": v})
                 for v in _log_grid(1e5, 1e8, 8)]  # fmt: skip

@@ -143,7 +143,12 @@ class Levant(CausalMethod):
         values = {}
         for order in orders:
             row = weights[order] * dt ** (j - order)
-            values[order] = np.tensordot(states, row, axes=([1], [0])).reshape(x.shape)
+            # summed term by term, not by a matrix product: BLAS may sum in another order for
+            # another number of samples, and a stream must equal the batch bit for bit
+            total = np.zeros(states[:, 0].shape)
+            for term, weight in enumerate(row):
+                total += weight * states[:, term]
+            values[order] = total.reshape(x.shape)
         return values, flat.reshape(state.shape)
 
 

@@ -49,6 +49,15 @@ def test_the_phase_delay_of_causal_jacobi_is_its_delay_parameter(delay_s):
         assert online.phase_delay_s(method, DT, order) == pytest.approx(delay_s, abs=2e-4 * 0.02)
 
 
+@pytest.mark.parametrize("epsilon_s", [0.002, 0.01])
+def test_the_phase_delay_of_the_high_gain_observer_s_last_state_is_m_epsilon(epsilon_s):
+    # z_m / y = s^(m-1) / (1 + eps s)^m: the top state lags m eps at low frequency; a state
+    # below it errs by O((eps s)^2), no lag
+    method = methods.get("high_gain_observer", observer_dimension=3, epsilon_s=epsilon_s)
+    assert online.phase_delay_s(method, DT, 2) == pytest.approx(3 * epsilon_s, rel=3e-3)
+    assert abs(online.phase_delay_s(method, DT, 1)) < 0.01 * epsilon_s
+
+
 def test_the_phase_delay_of_causal_butterworth_is_scipys_group_delay_at_low_frequency():
     method = methods.get("causal_butterworth", order=4, cutoff_hz=30.0, difference_accuracy=1)
     b, a = sps.sos2tf(sps.butter(4, 30.0, output="sos", fs=1 / DT))
@@ -111,7 +120,8 @@ def test_the_online_task_refuses_an_offline_method(tmp_path, capsys):
     assert "jacobi is not causal" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("name", ["causal_jacobi", "alpha_beta_gamma", "levant"])
+@pytest.mark.parametrize("name", ["causal_jacobi", "alpha_beta_gamma", "high_gain_observer",
+                                  "levant"])  # fmt: skip
 def test_causal_methods_are_tuned_like_the_others(name):
     from diffbench import signals
     from diffbench.bench import tuning

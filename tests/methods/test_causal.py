@@ -26,7 +26,8 @@ def _record(n=1500, channels=(), seed=0):
 
 def test_the_causal_methods_are_registered_apart_from_the_offline_ones():
     assert set(CAUSAL) == {"alpha_beta_gamma", "backward_difference", "causal_butterworth",
-                           "causal_jacobi", "kalman_filter", "levant"}  # fmt: skip
+                           "causal_jacobi", "high_gain_observer", "kalman_filter",
+                           "levant"}  # fmt: skip
     assert not set(CAUSAL) & set(methods.available())
     assert methods.available(causal=None) == sorted(set(CAUSAL) | set(methods.available()))
     assert all(methods.method_class(name).causal for name in CAUSAL)
@@ -211,6 +212,78 @@ def test_alpha_beta_gamma_follows_a_constant_acceleration_with_no_steady_error()
     transition, gain = method._model(DT)
     poles = np.linalg.eigvals(transition - np.outer(gain, transition[0]))
     np.testing.assert_allclose(poles, theta, atol=2e-5)
+
+
+@pytest.mark.parametrize("dimension", [3, 4])
+def test_the_high_gain_observer_is_the_continuous_observer_on_the_interpolated_samples(
+    dimension,
+):
+    """Khalil's equations in the unscaled states z, integrated by solve_ivp (DOP853, tight
+    tolerances) from sample to sample with y the line between them: the method's estimate
+    at every sample, to the integrator's accuracy."""
+    from scipy.integrate import solve_ivp
+
+    epsilon = 0.01
+    gains = np.array([math.comb(dimension, i) for i in range(1, dimension + 1)])
+    gains = gains / epsilon ** np.arange(1, dimension + 1)
+    x = _record(200)
+
+    def observer(t, z, start, slope):
+        innovation = start + slope * t - z[0]
+        return np.r_[z[1:], 0.0] + gains * innovation
+
+    z = np.zeros(dimension)
+    z[0] = x[0]
+    states = [z]
+    for k in range(x.size - 1):
+        z = solve_ivp(observer, (0.0, DT), z, method="DOP853", rtol=1e-12, atol=1e-12,
+                      args=(x[k], (x[k + 1] - x[k]) / DT)).y[:, -1]  # fmt: skip
+        states.append(z)
+    states = np.array(states)
+    estimate = methods.get("high_gain_observer", observer_dimension=dimension,
+                           epsilon_s=epsilon)(x, DT)  # fmt: skip
+    for order in (0, 1, 2):
+        scale = np.abs(states[:, order]).max()
+        np.testing.assert_allclose(estimate[order], states[:, order], rtol=0,
+                                   atol=1e-9 * scale)  # fmt: skip
+
+
+@pytest.mark.parametrize("dimension", [3, 4, 5])
+def test_the_high_gain_observer_places_all_its_poles_at_exp_minus_step_over_epsilon(dimension):
+    from diffbench.methods.high_gain_observer import discrete_observer
+
+    epsilon = 0.004
+    transition, _, _ = discrete_observer(dimension, epsilon, DT)
+    # the characteristic polynomial (a repeated root's eigenvalues are ill-conditioned)
+    np.testing.assert_allclose(np.poly(transition), np.poly([math.exp(-DT / epsilon)] *
+                                                            dimension), atol=1e-12)  # fmt: skip
+
+
+@pytest.mark.parametrize("dimension", [3, 4, 5])
+def test_the_high_gain_observer_follows_a_ramp_exactly_and_a_parabola_to_second_order(
+    dimension,
+):
+    epsilon = 0.005
+    method = methods.get("high_gain_observer", observer_dimension=dimension, epsilon_s=epsilon)
+    for dt in (DT, DT / 2):
+        t = np.arange(round(0.4 / dt)) * dt
+        late = t > 0.3  # 60 epsilon: the start transient (e^(-t/eps) t^(m-1)) is gone
+        ramp = method(0.3 - 2.0 * t, dt)
+        np.testing.assert_allclose(ramp[0][late], (0.3 - 2.0 * t)[late], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(ramp[1][late], -2.0, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(ramp[2][late], 0.0, rtol=0, atol=1e-6)
+    # the line between samples misses the parabola 5 t^2 by 5 dt^2 / 6 on average: x by as
+    # much; its derivatives see only the miss's ripple at 1/dt, filtered: O(dt^4)
+    misses = []
+    for dt in (DT, DT / 2):
+        t = np.arange(round(0.4 / dt)) * dt
+        late = t > 0.3
+        parabola = method(5.0 * t**2, dt)
+        truths = (5.0 * t**2, 10.0 * t, np.full_like(t, 10.0))
+        misses.append([np.abs(parabola[o][late] - truths[o][late]).max() for o in (0, 1, 2)])
+    misses = np.array(misses)
+    assert misses[0, 0] == pytest.approx(5 * DT**2 / 6, rel=0.05)
+    np.testing.assert_allclose(misses[0] / misses[1], [4.0, 16.0, 16.0], rtol=0.02)
 
 
 @pytest.mark.parametrize("n", [1, 2, 3])
