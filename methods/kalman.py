@@ -7,34 +7,41 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import fft as sp_fft
+from scipy import linalg, signal
 
 from diffbench.methods._registry import Method, Preset, param, register
 from diffbench.methods._validation import check_frequency
 
-_STATIONARY = 4 * np.finfo(float).eps  # relative change of the gains that counts as none
-_SETTLED = 1e-11  # relative change accepted as converged once held for 50 m steps
-_NEGLIGIBLE = 1e-18  # relative size at which the impulse responses are truncated
+CONVERGED = 1e-12
+"""How close (relative) the covariance recursion's gain and covariance must come to the
+steady state before the rest of a record is filtered with the steady gains; at low
+``bandwidth_hz * dt`` the recursion's rounding keeps it farther (measured: within 5e-11 at
+best at 1e-4, 2e-12 at 1e-3, 1e-14 at 1e-2), so the tolerance is also at least
+:data:`ROUNDING` / (ω_b Δt)² (2.2e-9 at 1e-4, 2.2e-11 at 1e-3)."""
+
+ROUNDING = 4 * np.finfo(float).eps
 
 MIN_BANDWIDTH_STEPS = 1e-4
-"""Lowest ``bandwidth_hz * dt``. The steady-state gains (which the frequency response needs)
-take about 5-6 / (bandwidth_hz * dt) steps of the covariance recursion: measured 4.8e4 to
-6.0e4 steps (2-3 s) at 1e-4, 1.5e5 to 2.0e5 (5-8 s) at 3e-5, 4.3e5 to 5.5e5 (19-24 s) at
-1e-5, against a cap of 10^6 steps (below about 5e-6 the 'steady' gains are a truncation). The
-estimate itself stays exact on polynomials at any bandwidth (it runs at most one step per
-sample)."""
+"""Lowest ``bandwidth_hz * dt``. From the vague prior the covariance recursion takes about
+6 / (bandwidth_hz * dt) steps to reach the steady state (to :data:`CONVERGED`), a Python loop of
+some 20 us a step: 6e4 steps (1-2 s) at 1e-4, and ten times as many at ten times less. The
+steady state itself is solved directly at any bandwidth (:func:`steady_state`)."""
 
 
 @dataclass(frozen=True)
 class KalmanModel:
-    r"""The state-space model in scaled states :math:`s_j = x^{(j)} \Delta t^j / j!`
-    (j = 0..m-1): transition F, process noise Q, measurement variance R (H = [1, 0, ...]),
-    and ``to_derivatives`` (:math:`j!/\Delta t^j`) mapping s_j back to :math:`x^{(j)}`."""
+    r"""The state-space model in states scaled by the bandwidth,
+    :math:`s_j = x^{(j)} / \omega_b^j` (j = 0..m-1, :math:`\omega_b = 2\pi f_b`): transition
+    F, process noise Q, measurement variance R (H = [1, 0, ...]), ``to_derivatives``
+    (:math:`\omega_b^j`) mapping s_j back to :math:`x^{(j)}`, and ``per_step_coefficient``
+    (:math:`j!/(\omega_b \Delta t)^j`): the state of the polynomial :math:`\sum_j c_j u^j` in
+    u = t / Δt is :math:`c_j` times it."""
 
     F: np.ndarray
     Q: np.ndarray
     R: float
     to_derivatives: np.ndarray
+    per_step_coefficient: np.ndarray
 
     @property
     def states(self) -> int:
@@ -53,23 +60,30 @@ def polynomial_model(model_order: int, dt: float, bandwidth_hz: float) -> Kalman
     the smoothed means (scaling both scales every covariance and leaves the gains unchanged),
     which is why one parameter, as a bandwidth, describes the smoother.
 
-    The model is returned in the scaled states :math:`s_j = x^{(j)}\\Delta t^j/j!` (the same
-    model under a diagonal change of variables: :math:`F' = TFT^{-1}` holds binomial
-    coefficients, :math:`Q' = TQT^\top`), whose covariances are far better conditioned: with
-    raw derivatives at 1 kHz the entries of Q span 20 orders of magnitude.
+    The model is returned in the states scaled by the bandwidth,
+    :math:`s_j = x^{(j)}/\\omega_b^j` (the same model under a diagonal change of variables:
+    :math:`F' = TFT^{-1}`, :math:`F'_{ij} = (\\omega_b \\Delta t)^{j-i}/(j-i)!`,
+    :math:`Q' = TQT^\top`), in which the steady covariance is well conditioned at any
+    bandwidth (its error variances are all about :math:`R\\,\\omega_b \\Delta t`: condition
+    number 30-1e4 for ``bandwidth_hz * dt`` from 1e-4 to 0.45, against up to 4e21 in states
+    scaled by :math:`\\Delta t^j/j!`, and beyond any precision in raw derivatives).
     """
     from filterpy.common import Q_continuous_white_noise  # lazy: filterpy imports slowly
 
     states = model_order + 1
-    density = (2 * math.pi * bandwidth_hz) ** (2 * states) * dt
+    omega = 2 * math.pi * bandwidth_hz
+    density = omega ** (2 * states) * dt
     noise = np.asarray(Q_continuous_white_noise(dim=states, dt=dt, spectral_density=density))
-    to_derivatives = np.array([math.factorial(j) / dt**j for j in range(states)])
+    to_derivatives = omega ** np.arange(states, dtype=float)
     scaled_noise = noise / np.outer(to_derivatives, to_derivatives)
+    reach = omega * dt
     transition = np.array(
-        [[math.comb(j, i) if j >= i else 0 for j in range(states)] for i in range(states)],
-        dtype=float,
-    )
-    return KalmanModel(F=transition, Q=scaled_noise, R=1.0, to_derivatives=to_derivatives)
+        [[reach ** (j - i) / math.factorial(j - i) if j >= i else 0.0 for j in range(states)]
+         for i in range(states)]
+    )  # fmt: skip
+    per_step = np.array([math.factorial(j) / reach**j for j in range(states)])
+    return KalmanModel(F=transition, Q=scaled_noise, R=1.0, to_derivatives=to_derivatives,
+                       per_step_coefficient=per_step)  # fmt: skip
 
 
 PRIOR_SCALE = 1e6
@@ -80,197 +94,289 @@ of ẋ over the record is 1.38 at 10 (the scale used until 2026-11), 0.37 at 1e3
 
 
 def initial_state(
-    z: np.ndarray, states: int, steps: np.ndarray | None = None
+    z: np.ndarray, per_step_coefficient: np.ndarray, steps: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     r"""Prior mean and covariance of the scaled state one step before the first sample: vague.
 
     A least-squares polynomial :math:`p(u) = \sum_j c_j u^j` (u in steps) of degree m-1
     through the first min(n, 4m) samples, sample j at u = j + 1: the scaled state at u = 0 is
-    the coefficients c themselves; covariance ``PRIOR_SCALE`` R (VᵀV)⁻¹, so that the data, not
-    the guess, decide the first estimates. A polynomial of the model's degree starts the filter
-    on its exact state, so the smoother reproduces it exactly. ``steps``: the samples' times in
-    steps from the prior (irregular times; default 1, 2, ...). ``z`` has shape (n, channels);
-    the mean has shape (m, channels). The covariance does not depend on the data.
+    :math:`D c`, D = diag(``per_step_coefficient``) (the model's, see :class:`KalmanModel`);
+    covariance ``PRIOR_SCALE`` R D (VᵀV)⁻¹ D, so that the data, not the guess, decide the first
+    estimates. A polynomial of the model's degree starts the filter on its exact state, so the
+    smoother reproduces it exactly. ``steps``: the samples' times in steps from the prior
+    (irregular times; default 1, 2, ...). ``z`` has shape (n, channels); the mean has shape
+    (m, channels). The covariance does not depend on the data.
     """
+    states = per_step_coefficient.size
     count = min(z.shape[0], 4 * states)
     steps = np.arange(1, count + 1, dtype=float) if steps is None else steps[:count]
     vandermonde = steps[:, None] ** np.arange(states)[None, :]
     coefficients, *_ = np.linalg.lstsq(vandermonde, z[:count], rcond=None)
-    return coefficients, PRIOR_SCALE * np.linalg.inv(vandermonde.T @ vandermonde)
+    covariance = np.linalg.inv(vandermonde.T @ vandermonde)
+    scale = np.outer(per_step_coefficient, per_step_coefficient)
+    return coefficients * per_step_coefficient[:, None], PRIOR_SCALE * covariance * scale
+
+
+@dataclass(frozen=True)
+class SteadyState:
+    """The steady state of the filter and smoother: filter gain K (m,), smoother gain C
+    (m, m), and the filtered covariance P (m, m)."""
+
+    filter_gain: np.ndarray
+    smoother_gain: np.ndarray
+    covariance: np.ndarray
+
+
+def steady_state(model: KalmanModel) -> SteadyState:
+    r"""The steady state, solved directly: the predicted covariance :math:`P^-` is the
+    stabilising solution of the discrete algebraic Riccati equation
+
+    .. math::
+        P^- = F P^- F^\\top - F P^- H^\\top (H P^- H^\\top + R)^{-1} H P^- F^\\top + Q
+
+    (``scipy.linalg.solve_discrete_are``, the filtering problem as the dual of the control
+    one); then :math:`K = P^- H^\\top / (H P^- H^\\top + R)`, the filtered covariance
+    :math:`P = (I - KH) P^- (I - KH)^\\top + R K K^\\top` and the smoother gain
+    :math:`C = P F^\\top (F P F^\\top + Q)^{-1}`, by the recursion's own formulas.
+
+    References
+    ----------
+    B. D. O. Anderson, J. B. Moore, "Optimal Filtering", Prentice-Hall 1979, ch. 4 and 7.
+    """
+    F, Q, R, m = model.F, model.Q, model.R, model.states
+    observation = np.eye(m, 1)
+    predicted = linalg.solve_discrete_are(F.T, observation, Q, np.array([[R]]))
+    gain = predicted[:, 0] / (predicted[0, 0] + R)
+    i_kh = np.eye(m)
+    i_kh[:, 0] -= gain
+    covariance = i_kh @ predicted @ i_kh.T + R * np.outer(gain, gain)
+    smoother = covariance @ F.T @ np.linalg.inv(F @ covariance @ F.T + Q)
+    return SteadyState(filter_gain=gain, smoother_gain=smoother, covariance=covariance)
 
 
 @dataclass(frozen=True)
 class Gains:
     """Data-independent gains: per-step filter gains K_k and smoother gains C_k for the first
-    ``len(filter_gains)`` steps, then their steady values."""
+    ``len(filter_gains)`` steps (until the steady state), then the steady ones."""
 
     filter_gains: np.ndarray  # (T, m)
     smoother_gains: np.ndarray  # (T, m, m)
-    steady_filter: np.ndarray  # (m,)
-    steady_smoother: np.ndarray  # (m, m)
+    steady: SteadyState
 
 
-def covariance_recursion(
-    model: KalmanModel, prior_covariance: np.ndarray, n: int, stop_at_rest: bool = False
-) -> Gains:
+def covariance_recursion(model: KalmanModel, prior_covariance: np.ndarray, n: int) -> Gains:
     """Run the covariance part of the filter and smoother (filterpy's equations: Joseph-form
-    update, C_k = P_k Fᵀ (F P_k Fᵀ + Q)⁻¹) for n steps or until both gains are stationary
-    to rounding (relative change <= 4 eps for 2m consecutive steps, or <= 1e-11 for 50m steps
-    where rounding keeps the last bits moving): the recursion's own fixed point, which is what
-    filterpy converges to.
-
-    With ``stop_at_rest`` (for the steady gains alone, see :func:`_steady_gains`), also stop
-    once P itself is still to 4 eps (elementwise, relative) for 50m steps: the fixed point
-    too, reached while P flips in its last bits and C, computed through the ill-conditioned
-    (F P Fᵀ + Q)⁻¹ at low bandwidth_hz * dt, amplifies the flips beyond 1e-11 (measured, for
-    the constant-jerk model: C alternating by 1e-7 at bandwidth_hz * dt = 2.7e-4, wandering by
-    1e-6 at 2.4e-4), so that the first two stops may never come (10^6 steps, 37 s, for one
-    frequency response). The estimate keeps the first two stops (it runs at most n steps).
-    """
+    update, C_k = P_k Fᵀ (F P_k Fᵀ + Q)⁻¹) for n steps or until the gain and the covariance
+    are within :data:`CONVERGED` (or the rounding floor) of the steady state
+    (:func:`steady_state`; the covariance compared entry by entry on the scale
+    :math:`\\sqrt{P_{ii} P_{jj}}`), from which on the steady gains hold."""
     F, Q, R, m = model.F, model.Q, model.R, model.states
+    steady = _steady_state(model)
+    target_gain, target = steady.filter_gain, steady.covariance
+    reach = model.F[0, 1]  # ω_b Δt
+    relative = max(CONVERGED, ROUNDING / reach**2)
+    gain_tolerance = relative * abs(target_gain).max()
+    tolerance = relative * np.sqrt(np.outer(np.diag(target), np.diag(target)))
     F_t = F.T
     identity = np.eye(m)
     inverse = np.linalg.inv
     P = prior_covariance
     filter_gains, smoother_gains = [], []
-    quiet = settled = resting = 0
     for _ in range(n):
-        previous = P
         predicted = F @ P @ F_t + Q
         gain = predicted[:, 0] / (predicted[0, 0] + R)
         i_kh = identity.copy()
         i_kh[:, 0] -= gain
         P = i_kh @ predicted @ i_kh.T + R * (gain[:, None] * gain[None, :])
-        smoother = P @ F_t @ inverse(F @ P @ F_t + Q)
-        if filter_gains:
-            # ndarray methods: this loop is the Kalman smoother's fixed cost per call
-            gain_still = abs(gain - filter_gains[-1]).max() <= _STATIONARY * abs(gain).max()
-            scale = _STATIONARY * abs(smoother).max()
-            still = gain_still and abs(smoother - smoother_gains[-1]).max() <= scale
-            quiet = quiet + 1 if still else 0
-            # Where rounding keeps the last bits moving, settle for 1e-11 held for 50 m steps.
-            close = abs(gain - filter_gains[-1]).max() <= _SETTLED * abs(gain).max() and (
-                abs(smoother - smoother_gains[-1]).max() <= _SETTLED * abs(smoother).max()
-            )
-            settled = settled + 1 if close else 0
-            at_rest = (abs(P - previous) <= _STATIONARY * abs(P)).all()
-            resting = resting + 1 if at_rest else 0
         filter_gains.append(gain)
-        smoother_gains.append(smoother)
-        if quiet >= 2 * m or settled >= 50 * m or (stop_at_rest and resting >= 50 * m):
+        smoother_gains.append(P @ F_t @ inverse(F @ P @ F_t + Q))
+        # ndarray methods: this loop is the Kalman smoother's fixed cost per call
+        if abs(gain - target_gain).max() <= gain_tolerance and (abs(P - target) <= tolerance).all():
             break
     return Gains(
         filter_gains=np.array(filter_gains),
-        smoother_gains=np.array(smoother_gains),
-        steady_filter=filter_gains[-1],
-        steady_smoother=smoother_gains[-1],
+        smoother_gains=np.array(smoother_gains).reshape(-1, m, m),
+        steady=steady,
     )
 
 
-def _powers_times(matrix: np.ndarray, vectors: np.ndarray, limit: int) -> np.ndarray:
-    """``matrix^j @ vectors`` for j = 0.. until negligible (or ``limit``): shape (L, ...)."""
-    out = [vectors]
-    scale = float(abs(vectors).max()) or 1.0
-    current = vectors
-    while len(out) < limit:
-        current = matrix @ current
-        out.append(current)
-        if len(out) % 8 == 0 and abs(current).max() < _NEGLIGIBLE * scale:
-            break
-    return np.array(out)
+def _steady_state(model: KalmanModel) -> SteadyState:
+    return _cached_steady_state(model.F.tobytes(), model.Q.tobytes(), model.R, model.states)
 
 
-def _causal_filter(u: np.ndarray, kernels: np.ndarray) -> np.ndarray:
-    """y_k = sum_j kernels[j] @ u_{k-j} for vector sequences: u (N, b, c), kernels (L, a, b)
-    -> (N, a, c).
-
-    Overlap-add FFT convolution with the spectra shared: each block of u is transformed once
-    per input component and mixed by the kernel spectra (a x b) before one inverse transform
-    per output, so the cost is that of a + b convolutions, not a x b."""
-    n, inputs, channels = u.shape
-    length, outputs = kernels.shape[0], kernels.shape[1]
-    size = sp_fft.next_fast_len(max(4 * length, 1 << 12), real=True)
-    hop = size - length + 1
-    blocks = -(-n // hop)
-    # time last and contiguous, each block already zero-padded to the FFT size
-    padded = np.zeros((inputs, channels, blocks, size))
-    series = np.zeros((inputs, channels, blocks * hop))
-    series[:, :, :n] = u.transpose(1, 2, 0)
-    padded[..., :hop] = series.reshape(inputs, channels, blocks, hop)
-    spectra_u = sp_fft.rfft(padded, axis=-1, workers=-1)
-    kernel_padded = np.zeros((outputs, inputs, size))
-    kernel_padded[..., :length] = kernels.transpose(1, 2, 0)
-    spectra_k = sp_fft.rfft(kernel_padded, axis=-1)  # (a, b, F)
-    out = np.empty((outputs, channels, blocks, hop))
-    for a in range(outputs):
-        mixed = sum(spectra_k[a, b][None, None, :] * spectra_u[b] for b in range(inputs)
-                    if spectra_k[a, b].any())  # fmt: skip
-        pieces = sp_fft.irfft(mixed, n=size, axis=-1, workers=-1)  # (channels, blocks, size)
-        out[a] = pieces[:, :, :hop]
-        out[a, :, 1:, : length - 1] += pieces[:, :-1, hop : hop + length - 1]
-    flat = out.reshape(outputs, channels, blocks * hop)[:, :, :n]
-    return flat.transpose(2, 0, 1)
+@functools.lru_cache(maxsize=64)
+def _cached_steady_state(f_bytes: bytes, q_bytes: bytes, r: float, states: int) -> SteadyState:
+    shape = (states, states)
+    model = KalmanModel(
+        F=np.frombuffer(f_bytes).reshape(shape), Q=np.frombuffer(q_bytes).reshape(shape), R=r,
+        to_derivatives=np.ones(states), per_step_coefficient=np.ones(states),
+    )  # fmt: skip
+    return steady_state(model)
 
 
-def rts_smooth(z: np.ndarray, model: KalmanModel, mean0, covariance0) -> np.ndarray:
+def _modes(matrix: np.ndarray):
+    """Eigenvalues λ and eigenvectors V (columns) of a real matrix, V⁻¹, and the modes to
+    run: one of each complex-conjugate pair (its twin is its conjugate) and each real one."""
+    eigenvalues, vectors = np.linalg.eig(matrix)
+    return eigenvalues, vectors, np.linalg.inv(vectors), np.flatnonzero(eigenvalues.imag >= 0)
+
+
+def _first_order(pole: complex, x: np.ndarray, before: np.ndarray, out: np.ndarray, backward):
+    r""":math:`f_k = \lambda f_{k-1} + x_k` along axis 0 (k = 0..L-1) from :math:`f_{-1}` =
+    ``before``, written as real signals s_r into the rows of ``out`` (each of length L + 1,
+    :math:`f_{-1}` first, or reversed where ``backward``), with coefficients :math:`a_r`
+    (returned) such that :math:`f = \sum_r a_r s_r`: any :math:`\mathrm{Re}(\alpha f)` is
+    the real combination :math:`\sum_r \mathrm{Re}(\alpha a_r) s_r`.
+
+    A real λ: f itself (one row). A complex one: :math:`f = (1 - \bar\lambda q^{-1}) w` with
+    w the real all-pole recursion :math:`w_k = 2\mathrm{Re}\lambda\, w_{k-1} - |\lambda|^2
+    w_{k-2} + x_k` (``scipy.signal.lfilter``, from :math:`w_{-2} = \mathrm{Im} f_{-1} /
+    \mathrm{Im}\lambda`, :math:`w_{-1} = \mathrm{Re} f_{-1} + \mathrm{Re}\lambda\,
+    w_{-2}`): two rows, w and w delayed one step, coefficients 1 and :math:`-\bar\lambda`.
+    Real arithmetic, one pass either way (a complex ``lfilter`` costs 3-4 times more)."""
+    order = slice(None, None, -1) if backward else slice(None)
+    if pole.imag == 0:
+        f = signal.lfilter([1.0], [1.0, -pole.real], x, axis=0,
+                           zi=(pole.real * before.real)[None])[0]  # fmt: skip
+        out[0][order] = np.concatenate([before.real[None], f])
+        return [1.0]
+    a1, a2 = -2 * pole.real, abs(pole) ** 2
+    older = before.imag / pole.imag  # w_{-2}
+    old = before.real + pole.real * older  # w_{-1}
+    state = np.stack([-a1 * old - a2 * older, -a2 * old])  # lfilter's, from w_{-1}, w_{-2}
+    w = signal.lfilter([1.0], [1.0, a1, a2], x, axis=0, zi=state)[0]
+    current, delayed = out[0][order], out[1][order]
+    current[0], current[1:] = old, w
+    delayed[0], delayed[1], delayed[2:] = older, old, w[:-1]
+    return [1.0, -np.conj(pole)]
+
+
+def _steady_passes(
+    z: np.ndarray, steady: SteadyState, F: np.ndarray, before: np.ndarray, components
+) -> tuple[np.ndarray, np.ndarray]:
+    """The steady filter and smoother over a record z (N, channels) whose filter starts from
+    the filtered state ``before`` (m, channels):
+
+    .. math::
+        \\hat s_k = A \\hat s_{k-1} + K z_k, \\quad A = (I - KH)F; \\qquad
+        \\tilde s_{N-1} = \\hat s_{N-1}, \\quad \\tilde s_k = C \\tilde s_{k+1} + (I - CF)\\hat s_k
+
+    In the eigenbases :math:`A = V\\Lambda V^{-1}`, :math:`C = WMW^{-1}` (well conditioned in
+    the bandwidth-scaled states: cond(V), cond(W) <= 40 for ``bandwidth_hz * dt`` in [1e-4,
+    0.45]) the filter is first-order recursions :math:`y_{l,k} = \\lambda_l y_{l,k-1} + d_l z_k`
+    (:math:`y = V^{-1}\\hat s`, d = V⁻¹K), and the smoother's modes :math:`u = W^{-1}\\tilde s`
+    are, exactly (the partial fractions of :math:`1/((1-\\mu q)(1-\\lambda q^{-1}))`, summed
+    over the finite record),
+
+    .. math::
+        u_{i,k} = \\sum_l c_{il}\\, y_{l,k} + \\sigma_{i,k}, \\quad
+        c_{il} = \\frac{(W^{-1}(I - CF)V)_{il}}{1 - \\lambda_l \\mu_i}, \\quad
+        \\sigma_{i,k} = \\mu_i \\sigma_{i,k+1} + \\mu_i b_i z_{k+1}, \\quad
+        \\sigma_{i,N-1} = u_{i,N-1} - \\sum_l c_{il}\\, y_{l,N-1}
+
+    with :math:`b = c\\, d`: one recursion forward per mode of A and one backward per mode of
+    C, each on z itself, one per conjugate pair (its twin is its conjugate) in real arithmetic
+    (:func:`_first_order`), and each smoothed component a real combination of their outputs
+    (one matrix product). Returns the smoothed ``components`` (len(components), N, channels)
+    and the whole smoothed state at k = 0 (m, channels)."""
+    m = F.shape[0]
+    transition = F - np.outer(steady.filter_gain, F[0])
+    poles, vectors, inverse, forward = _modes(transition)
+    drive, start = inverse @ steady.filter_gain, inverse @ before
+    poles_c, vectors_c, inverse_c, backward = _modes(steady.smoother_gain)
+    mixing = inverse_c @ (np.eye(m) - steady.smoother_gain @ F) @ vectors
+    coupling = mixing / (1 - poles_c[:, None] * poles[None, :])  # c_il
+    wanted = np.r_[np.asarray(components, dtype=int), np.arange(m)]  # then the state at k = 0
+    # s̃_j = Re( Σ_l (W c)_jl y_l + Σ_i W_ji σ_i ), each pair's twin its conjugate
+    n, channels = z.shape
+    rows = sum(2 if poles[mode].imag else 1 for mode in forward)
+    rows += sum(2 if poles_c[i].imag else 1 for i in backward)
+    basis = np.empty((rows, n + 1, channels))  # forward rows from k = -1, backward to k = N-1
+    weights, row = [], 0
+    last_modes = np.zeros((m, channels), dtype=complex)  # y_{l,N-1}
+    for mode in forward:
+        pole, d = poles[mode], drive[mode]
+        coefficients = _first_order(pole, z, start[mode] / d, basis[row:], False)
+        parts = basis[row : row + len(coefficients), -1]
+        last_modes[mode] = d * sum(a * s for a, s in zip(coefficients, parts, strict=True))
+        last_modes[int(np.argmin(abs(poles - np.conj(pole))))] = np.conj(last_modes[mode])
+        alpha = (2.0 if pole.imag > 0 else 1.0) * d * (vectors_c @ coupling[:, mode])
+        weights += [(alpha[wanted] * a).real for a in coefficients]
+        row += len(coefficients)
+    last = (vectors @ last_modes).real  # ŝ_{N-1}
+    end = inverse_c @ last - coupling @ last_modes  # σ_{N-1}
+    reversed_z = z[:0:-1]  # z_{N-1}, ..., z_1
+    scale = (coupling @ drive) * poles_c  # b_i μ_i
+    for i in backward:
+        # σ_{i,k} = b_i μ_i χ_{N-1-k}: χ_κ = μ_i χ_{κ-1} + z_{N-κ} from χ_0 = σ_{i,N-1} / (b_i μ_i),
+        # written reversed into the rows' samples 1..N (k = 0..N-1)
+        coefficients = _first_order(poles_c[i], reversed_z, end[i] / scale[i],
+                                    basis[row:, 1:], True)  # fmt: skip
+        alpha = (2.0 if poles_c[i].imag > 0 else 1.0) * scale[i] * vectors_c[:, i]
+        weights += [(alpha[wanted] * a).real for a in coefficients]
+        row += len(coefficients)
+    # sample 0 of the rows: k = -1 (forward rows), unused (backward rows)
+    mix = np.stack(weights, axis=1)  # (len(wanted), rows)
+    count = len(wanted) - m
+    samples = basis[:, 1:].reshape(rows, -1) if channels == 1 else None
+    if samples is None:
+        out = np.einsum("jp,pkc->jkc", mix[:count], basis[:, 1:])
+    else:
+        out = (mix[:count] @ samples).reshape(count, n, 1)
+    return out, mix[count:] @ basis[:, 1]
+
+
+def rts_smooth(
+    z: np.ndarray, model: KalmanModel, mean0, covariance0, components=None, gains=None
+) -> np.ndarray:
     """Kalman filter + Rauch-Tung-Striebel smoother, equal to filterpy's ``batch_filter`` +
     ``rts_smoother`` (predict then update at every sample) for every channel at once.
 
-    The covariances do not depend on the data, so they are run once until the gains are
-    steady; the transient is stepped explicitly and the steady remainder is a linear
-    time-invariant recursion, applied as a (truncated, < 1e-18 relative) impulse response by
-    FFT convolution. ``z`` has shape (n, channels); returns the smoothed states (n, m, channels).
-    """
+    The covariances do not depend on the data, so they are run once until the steady state;
+    the transient is stepped explicitly and the steady remainder, a linear time-invariant
+    recursion forward and one backward, is run mode by mode (:func:`_steady_passes`). ``z``
+    has shape (n, channels); returns the smoothed states (n, m, channels), or only the state
+    ``components`` given (n, len(components), channels). ``gains``: the recursion from
+    ``covariance0`` already run (to n steps or more), as :func:`prior_gains` keeps them."""
     F, m = model.F, model.states
+    components = list(range(m)) if components is None else list(components)
     n = z.shape[0]
-    gains = covariance_recursion(model, covariance0, n)
-    transient = len(gains.filter_gains)
-    filtered = np.empty((n, m, z.shape[1]))
+    gains = covariance_recursion(model, covariance0, n) if gains is None else gains
+    transient = min(n, len(gains.filter_gains))
+    filtered = np.empty((min(n, transient), m, z.shape[1]))
     state = mean0
     for k in range(min(n, transient)):
         predicted = F @ state
         state = predicted + np.outer(gains.filter_gains[k], z[k] - predicted[0])
         filtered[k] = state
+    smoothed = np.empty((len(components), n, z.shape[1]))  # component by component
     if n > transient:
-        # x_k = A x_{k-1} + K z_k with A = (I - K H) F, from k = transient on.
-        steady = gains.steady_filter
-        a_matrix = F - np.outer(steady, F[0])
-        impulse = _powers_times(a_matrix, steady[:, None], n - transient)  # (L, m, 1)
-        tail = z[transient:][:, None, :]
-        filtered[transient:] = _causal_filter(tail, impulse)
-        start = _powers_times(a_matrix, filtered[transient - 1], n - transient + 1)[1:]
-        filtered[transient : transient + start.shape[0]] += start
-    smoothed = np.empty_like(filtered)
-    smoothed[n - 1] = filtered[n - 1]
-    if n - 1 > transient:
-        # x~_k = C x~_{k+1} + (I - C F) x^_k for k in [transient, n-2], run in reversed time.
-        c_matrix = gains.steady_smoother
-        reversed_filtered = filtered[transient:][::-1].copy()  # index i <-> k = n - 1 - i
-        last = reversed_filtered[0].copy()
-        reversed_filtered[0] = 0.0
-        powers = _powers_times(c_matrix, np.eye(m), n - transient)  # C^j
-        kernels = powers @ (np.eye(m) - c_matrix @ F)  # G_j = C^j (I - C F)
-        result = _causal_filter(reversed_filtered, kernels)
-        ends = powers @ last  # C^i x^_{n-1}
-        result[: ends.shape[0]] += ends
-        smoothed[transient:] = result[::-1]
+        smoothed[:, transient:], following = _steady_passes(
+            z[transient:], gains.steady, F, filtered[-1], components
+        )
+    else:
+        following = filtered[-1]
+        smoothed[:, -1] = following[components]
     for k in range(min(n - 2, transient - 1), -1, -1):
         c_k = gains.smoother_gains[k]
-        smoothed[k] = filtered[k] + c_k @ (smoothed[k + 1] - F @ filtered[k])
-    return smoothed
-
-
-@functools.lru_cache(maxsize=64)
-def _steady_gains(model_order: int, dt: float, bandwidth_hz: float) -> Gains:
-    """The steady gains of the model (the recursion run from the usual prior until stationary;
-    cached: the frequency response needs them for every frequency set)."""
-    model = _cached_model(model_order, dt, bandwidth_hz)
-    _, covariance0 = initial_state(np.zeros((4 * model.states, 1)), model.states)
-    return covariance_recursion(model, covariance0, 10**6, stop_at_rest=True)
+        following = filtered[k] + c_k @ (following - F @ filtered[k])
+        smoothed[:, k] = following[components]
+    return smoothed.transpose(1, 0, 2)
 
 
 SETTLING = 1e-7
 """What the slowest mode of the steady filter or smoother must fall below to count as settled."""
+
+
+@functools.lru_cache(maxsize=64)
+def prior_gains(model_order: int, dt: float, bandwidth_hz: float) -> Gains:
+    """The covariance recursion of ``kalman``'s model from its vague prior (that of any record
+    of 4m samples or more: it depends on no data), run to the steady state; cached, as a
+    record of n samples needs its first n steps and the same model is called again and again
+    (tuning, the ends' probes)."""
+    model = _cached_model(model_order, dt, bandwidth_hz)
+    _, covariance0 = initial_state(np.zeros((4 * model.states, 1)), model.per_step_coefficient)
+    return covariance_recursion(model, covariance0, 10**6)
 
 
 @functools.lru_cache(maxsize=64)
@@ -279,13 +385,12 @@ def _end_reach(model_order: int, dt: float, bandwidth_hz: float) -> int:
     vague prior, plus the steps the slowest steady mode (filter :math:`(I - KH)F` or smoother
     C) takes to fall to 1e-7."""
     model = _cached_model(model_order, dt, bandwidth_hz)
-    _, covariance0 = initial_state(np.zeros((4 * model.states, 1)), model.states)
-    transient = len(covariance_recursion(model, covariance0, 10**6).filter_gains)
-    gains = _steady_gains(model_order, dt, bandwidth_hz)
-    a_matrix = model.F - np.outer(gains.steady_filter, model.F[0])
+    transient = len(prior_gains(model_order, dt, bandwidth_hz).filter_gains)
+    steady = _steady_state(model)
+    a_matrix = model.F - np.outer(steady.filter_gain, model.F[0])
     radius = max(
         np.max(np.abs(np.linalg.eigvals(a_matrix))),
-        np.max(np.abs(np.linalg.eigvals(gains.steady_smoother))),
+        np.max(np.abs(np.linalg.eigvals(steady.smoother_gain))),
     )
     return transient + int(np.ceil(np.log(SETTLING) / np.log(radius)))
 
@@ -409,16 +514,16 @@ class KalmanSmoother(Method):
         :math:`v = (I - A e^{-i\\theta})^{-1} K`, :math:`w = (I - C e^{i\\theta})^{-1}(I - CF) v`,
         :math:`H = w_n\\, n!/\\Delta t^n`, with A = (I - KH)F and the steady gains K, C."""
         model = self.model(dt)
-        gains = _steady_gains(self.model_order, float(dt), self.bandwidth_hz)
+        steady = _steady_state(model)
         F, m = model.F, model.states
-        a_matrix = F - np.outer(gains.steady_filter, F[0])
-        c_matrix = gains.steady_smoother
+        a_matrix = F - np.outer(steady.filter_gain, F[0])
+        c_matrix = steady.smoother_gain
         theta = 2 * np.pi * frequency_hz * dt
         identity = np.eye(m)[None, :, :]
         behind = np.exp(-1j * theta)[:, None, None]
         forward = np.linalg.solve(
             identity - a_matrix[None] * behind,
-            np.broadcast_to(gains.steady_filter, (theta.size, m))[..., None],
+            np.broadcast_to(steady.filter_gain, (theta.size, m))[..., None],
         )
         mix = (np.eye(m) - c_matrix @ F)[None] @ forward
         backward = np.linalg.solve(identity - c_matrix[None] / behind, mix)[..., 0]
@@ -428,12 +533,14 @@ class KalmanSmoother(Method):
     def _estimate(self, x, dt, orders):
         flat = x.reshape(x.shape[0], -1)
         model = self.model(dt)
-        mean0, covariance0 = initial_state(flat, model.states)
-        smoothed = rts_smooth(flat, model, mean0, covariance0)
+        mean0, covariance0 = initial_state(flat, model.per_step_coefficient)
+        known = flat.shape[0] >= 4 * model.states  # the prior of prior_gains
+        gains = prior_gains(self.model_order, float(dt), self.bandwidth_hz) if known else None
+        smoothed = rts_smooth(flat, model, mean0, covariance0, components=orders, gains=gains)
         valid = np.ones(x.shape[0], dtype=bool)
         values = {
-            order: (smoothed[:, order, :] * model.to_derivatives[order]).reshape(x.shape)
-            for order in orders
+            order: (smoothed[:, c, :] * model.to_derivatives[order]).reshape(x.shape)
+            for c, order in enumerate(orders)
         }
         return values, {order: valid.copy() for order in orders}
 
@@ -453,7 +560,9 @@ class KalmanSmoother(Method):
         Fs, Qs, to_derivatives = irregular_models(self.model_order, times, self.bandwidth_hz)
         states = self.model_order + 1
         trusted = trusted_times(self, times, step, orders)  # before the filter: may refuse
-        mean0, covariance0 = initial_state(flat, states, (times - times[0]) / step + 1.0)
+        # states scaled by the mean step h (s_j = x^(j) h^j / j!): the polynomial's coefficients
+        steps = (times - times[0]) / step + 1.0
+        mean0, covariance0 = initial_state(flat, np.ones(states), steps)
         smoothed = np.empty((n, states, flat.shape[1]))
         for channel in range(flat.shape[1]):
             kf = KalmanFilter(dim_x=states, dim_z=1)

@@ -25,7 +25,7 @@ from diffbench.methods.butterworth import _butter_sos
 from diffbench.methods.finite_difference import fornberg_weights
 from diffbench.methods.jacobi_kernel import half_width
 from diffbench.methods.kalman import (
-    _steady_gains,
+    _steady_state,
     covariance_recursion,
     initial_state,
     polynomial_model,
@@ -312,7 +312,7 @@ def _kalman_gains(model_order: int, dt: float, bandwidth_hz: float, steps: int):
     its first steps are the same for any ``steps``: a stream that outgrows them recomputes
     with more and gets the same gains."""
     model = polynomial_model(model_order, dt, bandwidth_hz)
-    _, covariance0 = initial_state(np.zeros((4 * model.states, 1)), model.states)
+    _, covariance0 = initial_state(np.zeros((4 * model.states, 1)), model.per_step_coefficient)
     return model, covariance_recursion(model, covariance0, steps)
 
 
@@ -366,7 +366,7 @@ class KalmanFilter(CausalMethod):
 
     def _response(self, frequency_hz, dt, order):
         model = polynomial_model(self.model_order, dt, self.bandwidth_hz)
-        steady = _steady_gains(self.model_order, dt, self.bandwidth_hz).steady_filter
+        steady = _steady_state(model).filter_gain
         transition = model.F - np.outer(steady, model.F[0])
         output = np.zeros(model.states)
         output[order] = model.to_derivatives[order]
@@ -389,7 +389,7 @@ class KalmanFilter(CausalMethod):
             model, gains, _ = known
         transition, recorded = model.F, gains.filter_gains
         estimates = np.empty((x.shape[0], *mean.shape))
-        steady = gains.steady_filter.reshape((-1,) + (1,) * (mean.ndim - 1))
+        steady = gains.steady.filter_gain.reshape((-1,) + (1,) * (mean.ndim - 1))
         for i in range(x.shape[0]):
             gain = recorded[k + i] if k + i < len(recorded) else None
             predicted = np.tensordot(transition, mean, axes=1)

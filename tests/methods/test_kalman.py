@@ -5,10 +5,13 @@ import pytest
 
 from diffbench import methods
 from diffbench.methods.kalman import (
+    CONVERGED,
+    ROUNDING,
     covariance_recursion,
     initial_state,
     polynomial_model,
     rts_smooth,
+    steady_state,
 )
 
 
@@ -37,7 +40,7 @@ def test_fast_smoother_equals_filterpy(model_order, n, bandwidth_hz, dt):
     t = np.arange(n) * dt
     z = np.sin(2 * np.pi * 3 * t) + 0.5 * t**2 + 0.1 * rng.standard_normal(n)
     model = polynomial_model(model_order, dt, bandwidth_hz)
-    mean0, covariance0 = initial_state(z[:, None], model.states)
+    mean0, covariance0 = initial_state(z[:, None], model.per_step_coefficient)
     fast = rts_smooth(z[:, None], model, mean0, covariance0)[:, :, 0]
     reference = _filterpy(z, model, mean0[:, 0], covariance0)
     scale = np.max(np.abs(reference), axis=0)
@@ -48,33 +51,55 @@ def test_fast_smoother_equals_filterpy(model_order, n, bandwidth_hz, dt):
 
 def test_the_fast_path_is_taken_and_the_transient_is_short_of_the_signal():
     model = polynomial_model(3, 1e-3, 24.0)
-    _, covariance0 = initial_state(np.zeros((16, 1)), model.states)
+    _, covariance0 = initial_state(np.zeros((16, 1)), model.per_step_coefficient)
     gains = covariance_recursion(model, covariance0, 10**6)
     assert 50 < len(gains.filter_gains) < 5000  # steady long before 1e6 samples
 
 
-def test_steady_gains_stop_where_only_the_smoother_gain_jitters():
-    """At 3.66 Hz (constant jerk, 1 kHz) P reaches its fixed point in about 2000 steps but,
-    with some BLAS builds, the smoother gain keeps flipping above 1e-11 (it is computed
-    through an ill-conditioned inverse): the first two stops never come, and a frequency
-    response used to run 10^6 steps (37 s); with others (OpenBLAS 0.3.31, numpy 2.4) it
-    settles at step 2003. Either way, stopping once P rests stops early and gives the same
-    response as the time domain."""
-    dt, bandwidth = 1e-3, 3.661359782389719
-    model = polynomial_model(3, dt, bandwidth)
-    _, covariance0 = initial_state(np.zeros((16, 1)), model.states)
-    at_rest = covariance_recursion(model, covariance0, 6000, stop_at_rest=True)
-    assert len(at_rest.filter_gains) < 3000
-    assert len(at_rest.filter_gains) <= len(covariance_recursion(model, covariance0,
-                                                                 6000).filter_gains)  # fmt: skip
+@pytest.mark.parametrize("model_order", [2, 3])
+@pytest.mark.parametrize("bandwidth_steps", [1e-4, 1e-3, 0.024, 0.3, 0.49])
+def test_the_steady_state_solves_the_riccati_equation_and_the_recursion_reaches_it(
+    model_order, bandwidth_steps
+):
+    """solve_discrete_are's P⁻ satisfies the Riccati equation (residual ~ rounding); the
+    covariance recursion from the vague prior reaches it within 9 / (bandwidth_hz * dt)
+    steps (measured 3.5-9), its last gains are the steady ones to the tolerance, and the
+    smoother gain is the recursion's formula at that P."""
+    dt = 1e-3
+    model = polynomial_model(model_order, dt, bandwidth_steps / dt)
+    F, Q, R = model.F, model.Q, model.R
+    steady = steady_state(model)
+    predicted = F @ steady.covariance @ F.T + Q
+    gain = predicted[:, 0] / (predicted[0, 0] + R)
+    np.testing.assert_allclose(gain, steady.filter_gain, rtol=1e-9, atol=0)
+    update = predicted - np.outer(gain, predicted[0])  # (I - KH) P⁻, equal to Joseph's form
+    scale = np.sqrt(np.outer(np.diag(steady.covariance), np.diag(steady.covariance)))
+    assert np.all(abs(update - steady.covariance) <= 1e-9 * scale)
+    _, covariance0 = initial_state(np.zeros((16, 1)), model.per_step_coefficient)
+    gains = covariance_recursion(model, covariance0, 10**6)
+    assert len(gains.filter_gains) <= 9 / bandwidth_steps
+    tolerance = max(CONVERGED, ROUNDING / (2 * np.pi * bandwidth_steps) ** 2)
+    last = gains.filter_gains[-1]
+    assert abs(last - steady.filter_gain).max() <= tolerance * abs(steady.filter_gain).max()
+    np.testing.assert_allclose(gains.smoother_gains[-1], steady.smoother_gain, rtol=0,
+                               atol=1e-6 * abs(steady.smoother_gain).max())  # fmt: skip
+
+
+def test_the_steady_response_is_what_the_time_domain_gives_at_a_low_bandwidth():
+    """At 0.2 Hz and 1 kHz (bandwidth_hz * dt = 2e-4, where the covariance in states scaled by
+    Δt^j/j! had condition number 6e19 and its smoother gain wandered by 1e-5) the frequency
+    response from the steady state matches the smoother run on a long sinusoid."""
+    dt, bandwidth, frequency = 1e-3, 0.2, 0.05
     method = methods.get("kalman", bandwidth_hz=bandwidth, model_order=3)
-    n, frequency = 9000, 2.0
+    n = 150_000
     t = np.arange(n) * dt
-    middle = slice(n // 3, 2 * n // 3)
-    response = method.frequency_response([frequency], dt, 1)[0]
-    estimate = method(np.sin(2 * np.pi * frequency * t), dt, orders=(1,))[1][middle]
-    expected = np.imag(response * np.exp(2j * np.pi * frequency * t[middle]))
-    np.testing.assert_allclose(estimate, expected, rtol=0, atol=1e-8 * 2 * np.pi * frequency)
+    middle = slice(n // 2 - 1000, n // 2 + 1000)
+    for order in (0, 1, 2):
+        response = method.frequency_response([frequency], dt, order)[0]
+        estimate = method(np.sin(2 * np.pi * frequency * t), dt, orders=(order,))[order][middle]
+        expected = np.imag(response * np.exp(2j * np.pi * frequency * t[middle]))
+        np.testing.assert_allclose(estimate, expected, rtol=0,
+                                   atol=1e-7 * (2 * np.pi * frequency) ** order)  # fmt: skip
 
 
 def test_method_equals_filterpy_in_raw_derivative_units_on_every_channel():
@@ -85,7 +110,7 @@ def test_method_equals_filterpy_in_raw_derivative_units_on_every_channel():
     estimate = method(x, dt)
     model = method.model(dt)
     for channel in range(2):
-        mean0, covariance0 = initial_state(x[:, [channel]], model.states)
+        mean0, covariance0 = initial_state(x[:, [channel]], model.per_step_coefficient)
         reference = _filterpy(x[:, channel], model, mean0[:, 0], covariance0)
         for order in (0, 1, 2):
             expected = reference[:, order] * model.to_derivatives[order]

@@ -1,7 +1,7 @@
 """The Kalman smoother beside filterpy's batch_filter + rts_smoother, per sample.
 
 filterpy runs on 2e4 samples (about 1 s), the method on 1e6; compare their mean times per
-sample (target: the method >= 100x faster). Results are checked after timing; no time is
+sample (target: the method >= 1000x faster). Results are checked after timing; no time is
 asserted.
 """
 
@@ -42,7 +42,7 @@ def test_filterpy_batch_filter_and_rts_smoother_2e4(benchmark, kalman):
 
     x = _signal(20_000)
     model = kalman.model(DT)
-    mean0, covariance0 = initial_state(x[:, None], model.states)
+    mean0, covariance0 = initial_state(x[:, None], model.per_step_coefficient)
 
     def run():
         kf = KalmanFilter(dim_x=model.states, dim_z=1)
