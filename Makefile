@@ -12,7 +12,7 @@ $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 10) else "diffbench needs Python >= 3.10; set PYTHON=python3.x")'
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test,peers,data]'
+	$(BIN)/python -m pip install --quiet -e '.[test,peers,data,dask]'
 	touch $(STAMP)
 
 # Every step resumes from the store (results/store/): a second `make bench` recomputes and
@@ -76,7 +76,7 @@ check-install:
 	$(PYTHON) -m venv $(CLASH_VENV)
 	$(CLASH_VENV)/bin/python -m pip install --quiet --upgrade pip
 	$(CLASH_VENV)/bin/python -m pip install --quiet 'bench==2.8' 'signals==0.0.2'
-	$(CLASH_VENV)/bin/python -m pip install --quiet '.[test,peers,data]'
+	$(CLASH_VENV)/bin/python -m pip install --quiet '.[test,peers,data,dask]'
 	$(CLASH_VENV)/bin/diffbench list > /dev/null
 	$(CLASH_VENV)/bin/python -c 'import diffbench.signals, signals; assert signals.__file__ != diffbench.signals.__file__'
 	$(CLASH_VENV)/bin/python -m pytest -q -n 2 --benchmark-disable -p no:cacheprovider

@@ -124,7 +124,22 @@ def build_parser() -> argparse.ArgumentParser:
         "--jobs",
         type=_positive_int,
         default=1,
-        help="local worker processes (results identical to a serial run)",
+        help="local worker processes, or Dask workers with --executor dask (results identical "
+        "to a serial run)",
+    )
+    work.add_argument(
+        "--executor",
+        choices=("local", "dask"),
+        default="local",
+        help="local: this machine's processes (--jobs); dask: a Dask LocalCluster of --jobs "
+        "workers, or the scheduler given by --scheduler (pip install 'diffbench[dask]')",
+    )
+    work.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        default=None,
+        help="a running Dask scheduler (tcp://host:8786; implies --executor dask): the "
+        "workers compute, this process stores",
     )
     work.add_argument("--no-progress", action="store_true", help="no progress bar")
     seeds = _Parser(add_help=False)
@@ -374,6 +389,21 @@ def _load_plugins(modules: list[str]) -> None:
             methods.load_plugin(module)
 
 
+def _workers(args) -> None:
+    """``args.jobs`` becomes where the work runs: an int (local processes) or
+    :class:`~bench.executor.DaskWorkers` (``--executor dask`` or ``--scheduler``)."""
+    if not hasattr(args, "executor"):
+        return
+    if args.scheduler is None and args.executor == "local":
+        return
+    if getattr(args, "records", None):
+        raise UsageError("--records runs on this machine only: drop --executor/--scheduler")
+    args.jobs = executor.DaskWorkers(address=args.scheduler, workers=args.jobs,
+                                     plugins=tuple(args.plugins))  # fmt: skip
+    with user_input("--executor dask: "):
+        executor.check(args.jobs)
+
+
 def _task(name: str):
     with user_input():
         return get_task(name)
@@ -490,7 +520,7 @@ def _task_of(args):
         return _task(args.task)
     if args.task != "identify-dfki":
         raise UsageError(f"--records is for identify-dfki only, not {args.task!r}")
-    if getattr(args, "jobs", 1) > 1 and not executor.forks():
+    if isinstance(args.jobs, int) and args.jobs > 1 and not executor.forks():
         args.jobs = 1  # workers started afresh would not know a task registered here
     with user_input("--records: "):
         return dfki_task(records)
@@ -718,6 +748,7 @@ def _main(argv: list[str]) -> int:
         args = build_parser().parse_args(argv)
         set_command(argv)
         _load_plugins(args.plugins)
+        _workers(args)
         args.handler(args)
     except UsageError as error:
         message = str(error).splitlines()[0] if str(error) else "bad command line"

@@ -1,4 +1,5 @@
-"""Where work runs: in this process, or on local worker processes that never outlive the run.
+"""Where work runs: in this process, on local worker processes that never outlive the run, or
+on Dask.
 
 ``ordered_map(function, items, jobs)`` yields ``function(item)`` in the order of ``items``;
 ``completed_map`` yields ``(item, function(item))`` as each finishes (a caller storing results
@@ -7,10 +8,16 @@ loses none that finished when it is stopped). With ``jobs`` > 1 they use a
 exception, Ctrl-C, SIGTERM turned into :class:`Terminated`) pending work is cancelled and every
 worker is terminated and joined. A worker whose parent dies without that chance (SIGKILL)
 notices within a quarter second and exits, so no process is left behind.
+
+With ``jobs`` a :class:`DaskWorkers` the items go to Dask's workers (``client.map``), a
+LocalCluster started for the run or a running scheduler (one on a Slurm or PBS cluster through
+dask-jobqueue); the results come back to this process as they do from local ones.
 """
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import multiprocessing
 import os
 import signal
@@ -18,9 +25,109 @@ import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
 from typing import Any
 
 PARENT_POLL_S = 0.25
+
+
+@dataclass(frozen=True)
+class DaskWorkers:
+    """Where a run goes to Dask (``dask.distributed``, the optional extra ``dask``): the
+    scheduler at ``address``, or a :class:`~dask.distributed.LocalCluster` of ``workers``
+    single-threaded worker processes started for the run (``processes=False``: threads of this
+    process, for tests). Workers compute and return rows; this process alone stores them, so
+    the store stays the one source of truth and a killed client resumes as any run does."""
+
+    address: str | None = None
+    workers: int = 2
+    processes: bool = True
+    plugins: tuple[str, ...] = ()  # plugin modules every worker loads before its first item
+
+    def describe(self) -> str:
+        return f"the Dask scheduler at {self.address}" if self.address else "a Dask LocalCluster"
+
+
+Workers = int | DaskWorkers
+"""Local processes (an int, 1: here) or :class:`DaskWorkers`."""
+
+SCHEDULER_TIMEOUT_S = 10
+
+
+def _distributed():
+    try:
+        import dask.distributed
+    except ImportError:
+        raise ValueError(
+            "Dask is not installed: pip install 'diffbench[dask]' (dask.distributed)"
+        ) from None
+    return dask.distributed
+
+
+def check(spec: Workers) -> None:
+    """Raise ``ValueError`` (saying what to do) unless ``spec`` can run: Dask installed and,
+    for an address, a scheduler answering there."""
+    if isinstance(spec, DaskWorkers):
+        _distributed()
+        if spec.address is not None:
+            with _dask_client(spec):
+                pass
+
+
+@contextlib.contextmanager
+def _dask_client(spec: DaskWorkers):
+    """A client of ``spec``'s scheduler (a LocalCluster started here and closed after)."""
+    distributed = _distributed()
+    Client, LocalCluster = distributed.Client, distributed.LocalCluster
+    cluster = None
+    if spec.address is None:
+        cluster = LocalCluster(n_workers=spec.workers, threads_per_worker=1,
+                               processes=spec.processes, dashboard_address=None)  # fmt: skip
+        client = Client(cluster)
+    else:
+        try:
+            client = Client(spec.address, timeout=SCHEDULER_TIMEOUT_S)
+        except (OSError, TimeoutError) as error:
+            raise ValueError(
+                f"no Dask scheduler answers at {spec.address!r} ({error}); start one "
+                "(`dask scheduler`, or dask-jobqueue on a cluster) or fix --scheduler"
+            ) from None
+    try:
+        yield client
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _with_plugins(plugins: tuple[str, ...], function: Callable[[Any], Any], item: Any) -> Any:
+    """``function(item)`` on a worker that has loaded ``plugins`` (once per process)."""
+    from diffbench.methods import load_plugin
+
+    for module in plugins:
+        load_plugin(module)
+    return function(item)
+
+
+def _dask_map(function, items, spec: DaskWorkers, ordered: bool):
+    from dask.distributed import as_completed as dask_completed
+
+    if not items:
+        return
+    if spec.plugins:
+        function = functools.partial(_with_plugins, spec.plugins, function)
+    with _dask_client(spec) as client:
+        futures = client.map(function, list(items), pure=False)
+        where = {future.key: item for future, item in zip(futures, items, strict=True)}
+        try:
+            if ordered:
+                for future in futures:
+                    yield future.result()
+            else:
+                for future in dask_completed(futures):
+                    yield where[future.key], future.result()
+        finally:
+            client.cancel(futures)
 
 
 class Terminated(BaseException):
@@ -61,8 +168,14 @@ def _context():
     return multiprocessing.get_context("fork" if forks() else "spawn")
 
 
-def ordered_map(function: Callable[[Any], Any], items: Sequence[Any], jobs: int = 1) -> Iterator:
-    """``function(item)`` for each item, in order, on ``jobs`` local processes (1: here)."""
+def ordered_map(
+    function: Callable[[Any], Any], items: Sequence[Any], jobs: Workers = 1
+) -> Iterator:
+    """``function(item)`` for each item, in order, on ``jobs`` local processes (1: here) or
+    on Dask (:class:`DaskWorkers`)."""
+    if isinstance(jobs, DaskWorkers):
+        yield from _dask_map(function, items, jobs, ordered=True)
+        return
     if _serial(items, jobs):
         for item in items:
             yield function(item)
@@ -77,10 +190,13 @@ def ordered_map(function: Callable[[Any], Any], items: Sequence[Any], jobs: int 
 
 
 def completed_map(
-    function: Callable[[Any], Any], items: Sequence[Any], jobs: int = 1
+    function: Callable[[Any], Any], items: Sequence[Any], jobs: Workers = 1
 ) -> Iterator[tuple[Any, Any]]:
     """``(item, function(item))`` for each item as soon as it is done, on ``jobs`` local
-    processes (1: here, in order)."""
+    processes (1: here, in order) or on Dask (:class:`DaskWorkers`)."""
+    if isinstance(jobs, DaskWorkers):
+        yield from _dask_map(function, items, jobs, ordered=False)
+        return
     if _serial(items, jobs):
         for item in items:
             yield item, function(item)

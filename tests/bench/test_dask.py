@@ -1,0 +1,97 @@
+"""Runs on Dask (the optional extra): the same numbers as a serial run, a killed client that
+resumes, a running scheduler by address."""
+
+import json
+import signal
+import subprocess
+import time
+
+import numpy as np
+import pytest
+
+from diffbench.bench import executor, runner
+from diffbench.bench.cli import main
+from diffbench.bench.executor import DaskWorkers
+from diffbench.bench.store import Store
+
+distributed = pytest.importorskip("dask.distributed")
+
+from tests.bench.test_runner import CLI, ENV, RUN, _cells, _values, _wait_for_cells  # noqa: E402
+
+IN_PROCESS = DaskWorkers(workers=2, processes=False)  # threads of this process: fast to start
+
+
+def test_a_local_cluster_stores_the_same_numbers_as_a_serial_run(tmp_path):
+    serial, on_dask = Store(tmp_path / "s"), Store(tmp_path / "d")
+    cells = _cells(seeds=3, names=("finite_difference", "jacobi", "kalman"))
+    runner.run(cells, serial)
+    summary = runner.run(cells, on_dask, jobs=IN_PROCESS)
+    assert summary.computed == 9
+    np.testing.assert_array_equal(_values(serial), _values(on_dask))
+
+
+def test_a_tuning_on_dask_is_the_serial_tuning(tmp_path):
+    jobs = [runner.TuningJob("paper-signal", name, "oracle", 1, 10_000, budget=12)
+            for name in ("savitzky_golay", "butterworth")]  # fmt: skip
+    serial, _ = runner.tune_all(jobs, Store(tmp_path / "s"))
+    on_dask, summary = runner.tune_all(jobs, Store(tmp_path / "d"), jobs=IN_PROCESS)
+    assert summary.computed == 2
+    for job in jobs:
+        assert on_dask[job]["params"] == serial[job]["params"]
+        assert on_dask[job]["loss"] == serial[job]["loss"]
+
+
+def test_completed_map_on_dask_returns_each_item_with_its_result():
+    items = list(range(7))
+    found = dict(executor.completed_map(abs, [-i for i in items], IN_PROCESS))
+    assert found == {-i: i for i in items}
+    assert list(executor.ordered_map(abs, [-3, 1, -2], IN_PROCESS)) == [3, 1, 2]
+    assert list(executor.ordered_map(abs, [], IN_PROCESS)) == []
+
+
+def test_the_cli_runs_on_a_scheduler_given_by_address(tmp_path):
+    command = ["run", "paper-signal", "--seeds", "2", "--methods",
+               "finite_difference,savitzky_golay", "--no-progress"]  # fmt: skip
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:  # fmt: skip
+        address = cluster.scheduler_address
+        assert main([*command, "--scheduler", address, "--out", str(tmp_path / "d")]) == 0
+    assert main([*command, "--out", str(tmp_path / "s")]) == 0
+    on_dask = (tmp_path / "d" / "paper-signal" / "rmse.csv").read_text()
+    assert on_dask == (tmp_path / "s" / "paper-signal" / "rmse.csv").read_text()
+    runs = [json.loads(line) for line in (tmp_path / "d" / "store" / "cells.jsonl").open()
+            if '"record":"run"' in line]  # fmt: skip
+    assert f"--scheduler {address}" in runs[0]["command"]
+
+
+def test_a_scheduler_that_does_not_answer_is_a_usage_error(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(executor, "SCHEDULER_TIMEOUT_S", 1)
+    code = main(["run", "paper-signal", "--seeds", "1", "--methods", "finite_difference",
+                 "--scheduler", "tcp://127.0.0.1:9", "--out", str(tmp_path)])  # fmt: skip
+    assert code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no Dask scheduler answers at 'tcp://127.0.0.1:9'" in err
+    assert not (tmp_path / "store").exists()
+
+
+def test_killing_the_client_mid_run_loses_nothing_and_the_rerun_completes(tmp_path):
+    """SIGKILL of `run --executor dask --jobs 2` (its LocalCluster's processes with it or
+    after them): the finished cells are stored once each, and the same command completes the
+    run to the table of an uninterrupted one."""
+    out = tmp_path / "killed"
+    process = subprocess.Popen([*CLI, *RUN, "--executor", "dask", "--jobs", "2", "--out",
+                                str(out)], env=ENV, stdout=subprocess.DEVNULL,
+                               stderr=subprocess.PIPE)  # fmt: skip
+    _wait_for_cells(out / "store" / "cells.jsonl", 4, process)
+    process.send_signal(signal.SIGKILL)
+    process.communicate(timeout=60)
+    stored = len(Store(out / "store").cells.records)
+    assert 0 < stored < 90, "the kill should land mid-run"
+    time.sleep(0.5)
+    assert main([*RUN, "--out", str(out), "--executor", "dask", "--jobs", "2"]) == 0
+    assert main([*RUN, "--out", str(tmp_path / "full")]) == 0
+    full = (tmp_path / "full" / "paper-signal" / "rmse.csv").read_text()
+    assert (out / "paper-signal" / "rmse.csv").read_text() == full
+    lines = (out / "store" / "cells.jsonl").read_text().splitlines()
+    keys = [json.loads(line)["key"] for line in lines if '"record":"cell"' in line]
+    assert len(keys) == len(set(keys)) == 90
