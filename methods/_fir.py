@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from scipy import fft as sp_fft
 from scipy import signal as sps
 
 _OVERLAP_ADD_FROM = 32  # taps; shorter kernels are convolved directly
@@ -40,6 +41,69 @@ def apply_central_fir(x: np.ndarray, taps: np.ndarray) -> tuple[np.ndarray, np.n
     y[:half] = np.nan
     y[n - half :] = np.nan
     return y, central_mask(n, half)
+
+
+def apply_central_firs(x: np.ndarray, taps_list) -> list[tuple[np.ndarray, np.ndarray]]:
+    """:func:`apply_central_fir` for several kernels on the same ``x`` (e.g. the derivative
+    orders of one method): ``[(y, valid), ...]`` in the order of ``taps_list``.
+
+    Two or more long kernels (>= 32 taps) that fit the record share one overlap-add: each block
+    of ``x`` is transformed once (``scipy.fft.rfft``, all channels and blocks at once) and
+    multiplied by each kernel's spectrum before its own inverse transform, instead of one
+    ``oaconvolve`` per kernel (each transforming ``x`` again): measured 2.0-2.5 times faster for
+    the three 211-tap kernels of Jacobi's paper preset on 1e6 samples; equal to ``oaconvolve``
+    to rounding (7e-12 there).
+    """
+    taps_list = [np.asarray(taps, dtype=np.float64) for taps in taps_list]
+    n = x.shape[0]
+    long_enough = [taps.ndim == 1 and taps.size % 2 == 1 and _OVERLAP_ADD_FROM <= taps.size <= n
+                   for taps in taps_list]  # fmt: skip
+    shared = [i for i, fits in enumerate(long_enough) if fits]
+    if len(shared) < 2:
+        return [apply_central_fir(x, taps) for taps in taps_list]
+    filtered = _shared_overlap_add(x, [taps_list[i] for i in shared])
+    out = []
+    for i, taps in enumerate(taps_list):
+        if i not in shared:
+            out.append(apply_central_fir(x, taps))
+            continue
+        y, half = filtered[shared.index(i)], taps.size // 2
+        y[:half] = np.nan
+        y[n - half :] = np.nan
+        out.append((y, central_mask(n, half)))
+    return out
+
+
+BLOCK_PER_TAP = 16
+"""Overlap-add blocks of about this many times the longest kernel (at least 4096 samples):
+measured fastest at 16-20 for 211 taps on 1e6 samples."""
+
+
+def _shared_overlap_add(x: np.ndarray, taps_list) -> list[np.ndarray]:
+    """Each centred kernel correlated with ``x`` along axis 0 ("same" alignment), by one
+    overlap-add whose forward transforms all kernels share."""
+    n = x.shape[0]
+    flat = x.reshape(n, -1).T  # (channels, n)
+    channels = flat.shape[0]
+    longest = max(taps.size for taps in taps_list)
+    size = sp_fft.next_fast_len(max(BLOCK_PER_TAP * longest, 4096), real=True)
+    hop = size - longest + 1
+    blocks = -(-n // hop)
+    padded = np.zeros((channels, blocks, size))
+    series = np.zeros((channels, blocks * hop))
+    series[:, :n] = flat
+    padded[..., :hop] = series.reshape(channels, blocks, hop)
+    spectra = sp_fft.rfft(padded, axis=-1)
+    out = []
+    for taps in taps_list:
+        pieces = sp_fft.irfft(spectra * sp_fft.rfft(taps[::-1], size), size, axis=-1)
+        full = np.zeros((channels, (blocks + 1) * hop))
+        full[:, : blocks * hop].reshape(channels, blocks, hop)[...] = pieces[..., :hop]
+        tails = full[:, hop:].reshape(channels, blocks, hop)
+        tails[..., : longest - 1] += pieces[..., hop:]
+        start = (taps.size - 1) // 2
+        out.append(np.ascontiguousarray(full[:, start : start + n].T).reshape(x.shape))
+    return out
 
 
 def _kernel(taps: np.ndarray, ndim: int) -> np.ndarray:

@@ -100,17 +100,21 @@ def end_evaluators(
 
 
 def apply_fir_with_ends(
-    x: np.ndarray, taps: np.ndarray, ends: tuple[np.ndarray, np.ndarray, np.ndarray]
+    x: np.ndarray,
+    taps: np.ndarray,
+    ends: tuple[np.ndarray, np.ndarray, np.ndarray],
+    filtered: np.ndarray | None = None,
 ) -> np.ndarray:
     """The central FIR filter ``taps`` (2c + 1 of them) on the interior of ``x`` (time on axis
     0) and the shifted estimates of :func:`end_evaluators` (a window of 2m + 1 >= 2c + 1
-    samples) on the first and last c samples, where the central window does not fit."""
+    samples) on the first and last c samples, where the central window does not fit.
+    ``filtered``: the central filter's output already computed (it is completed in place)."""
     left, right, project = ends
     m, c = left.shape[0], taps.size // 2
     n, window = x.shape[0], 2 * m + 1
     if n < window or c > m:
         raise ValueError(f"`x` has {n} samples, fewer than the window's {window}")
-    y, _ = apply_central_fir(x, taps)
+    y = apply_central_fir(x, taps)[0] if filtered is None else filtered
     if c == 0:
         return y
     flat = x.reshape(n, -1)

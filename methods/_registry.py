@@ -19,7 +19,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from diffbench.methods._ends import mask_untrusted, trusted_samples
-from diffbench.methods._fir import apply_central_fir, fir_response
+from diffbench.methods._fir import apply_central_firs, fir_response
 from diffbench.methods._plugins import load_automatic_plugins, missing_hint
 from diffbench.methods._time_stamps import from_grid, to_grid, uniform_grid
 from diffbench.methods._validation import (
@@ -460,9 +460,9 @@ class FirMethod(Method):
         return fir_response(self.taps(order, dt), frequency_hz, dt)
 
     def _estimate(self, x, dt, orders):
-        values, valid = {}, {}
-        for order in orders:
-            values[order], valid[order] = apply_central_fir(x, self.taps(order, dt))
+        filtered = apply_central_firs(x, [self.taps(order, dt) for order in orders])
+        values = {order: y for order, (y, _) in zip(orders, filtered, strict=True)}
+        valid = {order: mask for order, (_, mask) in zip(orders, filtered, strict=True)}
         return values, valid
 
 

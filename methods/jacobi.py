@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from diffbench.methods._fir import apply_central_firs
 from diffbench.methods._local_poly import apply_fir_with_ends, end_evaluators
 from diffbench.methods._registry import FirMethod, Preset, param, register
 from diffbench.methods._validation import MAX_WINDOW_STEPS
@@ -326,6 +327,10 @@ class Jacobi(FirMethod):
         if self.ends == "central":
             return super()._estimate(x, dt, orders)
         values, valid = {}, {}
+        taps = {order: self.taps(order, dt) for order in orders}
+        # a window longer than the record fails below, with its message
+        fits = [order for order in orders if taps[order].size <= x.shape[0]]
+        central = dict(zip(fits, apply_central_firs(x, [taps[o] for o in fits]), strict=True))
         for order in orders:
             m = self._half_width(order, dt)
             nodes = np.arange(-m, m + 1) / m
@@ -335,7 +340,8 @@ class Jacobi(FirMethod):
             carrying = np.count_nonzero(weights > weights.max() * WEIGHT_FLOOR)
             degree = min(self._fit_degree(order), carrying - 1)
             ends = end_evaluators(m, degree, order, dt, sample_weights=weights)
-            values[order] = apply_fir_with_ends(x, self.taps(order, dt), ends)
+            filtered = central[order][0] if order in central else None
+            values[order] = apply_fir_with_ends(x, taps[order], ends, filtered)
             valid[order] = np.isfinite(values[order]).reshape(x.shape[0], -1).all(axis=1)
         return values, valid
 
