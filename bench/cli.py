@@ -520,7 +520,7 @@ def _task_of(args):
         return _task(args.task)
     if args.task != "identify-dfki":
         raise UsageError(f"--records is for identify-dfki only, not {args.task!r}")
-    if isinstance(args.jobs, int) and args.jobs > 1 and not executor.forks():
+    if getattr(args, "jobs", 1) > 1 and not executor.forks():
         args.jobs = 1  # workers started afresh would not know a task registered here
     with user_input("--records: "):
         return dfki_task(records)

@@ -44,9 +44,6 @@ class DaskWorkers:
     processes: bool = True
     plugins: tuple[str, ...] = ()  # plugin modules every worker loads before its first item
 
-    def describe(self) -> str:
-        return f"the Dask scheduler at {self.address}" if self.address else "a Dask LocalCluster"
-
 
 Workers = int | DaskWorkers
 """Local processes (an int, 1: here) or :class:`DaskWorkers`."""

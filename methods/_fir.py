@@ -61,13 +61,14 @@ def apply_central_firs(x: np.ndarray, taps_list) -> list[tuple[np.ndarray, np.nd
     shared = [i for i, fits in enumerate(long_enough) if fits]
     if len(shared) < 2:
         return [apply_central_fir(x, taps) for taps in taps_list]
-    filtered = _shared_overlap_add(x, [taps_list[i] for i in shared])
+    filtered = dict(zip(shared, _shared_overlap_add(x, [taps_list[i] for i in shared]),
+                        strict=True))  # fmt: skip
     out = []
     for i, taps in enumerate(taps_list):
-        if i not in shared:
+        if i not in filtered:
             out.append(apply_central_fir(x, taps))
             continue
-        y, half = filtered[shared.index(i)], taps.size // 2
+        y, half = filtered[i], taps.size // 2
         y[:half] = np.nan
         y[n - half :] = np.nan
         out.append((y, central_mask(n, half)))

@@ -328,9 +328,8 @@ class Jacobi(FirMethod):
             return super()._estimate(x, dt, orders)
         values, valid = {}, {}
         taps = {order: self.taps(order, dt) for order in orders}
-        # a window longer than the record fails below, with its message
-        fits = [order for order in orders if taps[order].size <= x.shape[0]]
-        central = dict(zip(fits, apply_central_firs(x, [taps[o] for o in fits]), strict=True))
+        # all orders share one FFT; a window longer than the record fails below, with its message
+        central = dict(zip(taps, apply_central_firs(x, list(taps.values())), strict=True))
         for order in orders:
             m = self._half_width(order, dt)
             nodes = np.arange(-m, m + 1) / m
@@ -340,8 +339,7 @@ class Jacobi(FirMethod):
             carrying = np.count_nonzero(weights > weights.max() * WEIGHT_FLOOR)
             degree = min(self._fit_degree(order), carrying - 1)
             ends = end_evaluators(m, degree, order, dt, sample_weights=weights)
-            filtered = central[order][0] if order in central else None
-            values[order] = apply_fir_with_ends(x, taps[order], ends, filtered)
+            values[order] = apply_fir_with_ends(x, taps[order], ends, central[order][0])
             valid[order] = np.isfinite(values[order]).reshape(x.shape[0], -1).all(axis=1)
         return values, valid
 

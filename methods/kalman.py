@@ -127,7 +127,7 @@ class SteadyState:
     covariance: np.ndarray
 
 
-def steady_state(model: KalmanModel) -> SteadyState:
+def steady_state(F: np.ndarray, Q: np.ndarray, R: float) -> SteadyState:
     r"""The steady state, solved directly: the predicted covariance :math:`P^-` is the
     stabilising solution of the discrete algebraic Riccati equation
 
@@ -143,7 +143,7 @@ def steady_state(model: KalmanModel) -> SteadyState:
     ----------
     B. D. O. Anderson, J. B. Moore, "Optimal Filtering", Prentice-Hall 1979, ch. 4 and 7.
     """
-    F, Q, R, m = model.F, model.Q, model.R, model.states
+    m = F.shape[0]
     observation = np.eye(m, 1)
     predicted = linalg.solve_discrete_are(F.T, observation, Q, np.array([[R]]))
     gain = predicted[:, 0] / (predicted[0, 0] + R)
@@ -201,17 +201,15 @@ def covariance_recursion(model: KalmanModel, prior_covariance: np.ndarray, n: in
 
 
 def _steady_state(model: KalmanModel) -> SteadyState:
+    """:func:`steady_state` of ``model``, cached by its matrices' contents."""
     return _cached_steady_state(model.F.tobytes(), model.Q.tobytes(), model.R, model.states)
 
 
 @functools.lru_cache(maxsize=64)
 def _cached_steady_state(f_bytes: bytes, q_bytes: bytes, r: float, states: int) -> SteadyState:
     shape = (states, states)
-    model = KalmanModel(
-        F=np.frombuffer(f_bytes).reshape(shape), Q=np.frombuffer(q_bytes).reshape(shape), R=r,
-        to_derivatives=np.ones(states), per_step_coefficient=np.ones(states),
-    )  # fmt: skip
-    return steady_state(model)
+    return steady_state(np.frombuffer(f_bytes).reshape(shape),
+                        np.frombuffer(q_bytes).reshape(shape), r)  # fmt: skip
 
 
 def _modes(matrix: np.ndarray):
@@ -315,14 +313,12 @@ def _steady_passes(
         alpha = (2.0 if poles_c[i].imag > 0 else 1.0) * scale[i] * vectors_c[:, i]
         weights += [(alpha[wanted] * a).real for a in coefficients]
         row += len(coefficients)
-    # sample 0 of the rows: k = -1 (forward rows), unused (backward rows)
     mix = np.stack(weights, axis=1)  # (len(wanted), rows)
     count = len(wanted) - m
-    samples = basis[:, 1:].reshape(rows, -1) if channels == 1 else None
-    if samples is None:
-        out = np.einsum("jp,pkc->jkc", mix[:count], basis[:, 1:])
+    if channels == 1:  # one BLAS product
+        out = (mix[:count] @ basis[:, 1:, 0])[..., None]
     else:
-        out = (mix[:count] @ samples).reshape(count, n, 1)
+        out = np.einsum("jp,pkc->jkc", mix[:count], basis[:, 1:])
     return out, mix[count:] @ basis[:, 1]
 
 
@@ -343,9 +339,9 @@ def rts_smooth(
     n = z.shape[0]
     gains = covariance_recursion(model, covariance0, n) if gains is None else gains
     transient = min(n, len(gains.filter_gains))
-    filtered = np.empty((min(n, transient), m, z.shape[1]))
+    filtered = np.empty((transient, m, z.shape[1]))
     state = mean0
-    for k in range(min(n, transient)):
+    for k in range(transient):
         predicted = F @ state
         state = predicted + np.outer(gains.filter_gains[k], z[k] - predicted[0])
         filtered[k] = state

@@ -68,7 +68,7 @@ def test_the_steady_state_solves_the_riccati_equation_and_the_recursion_reaches_
     dt = 1e-3
     model = polynomial_model(model_order, dt, bandwidth_steps / dt)
     F, Q, R = model.F, model.Q, model.R
-    steady = steady_state(model)
+    steady = steady_state(model.F, model.Q, model.R)
     predicted = F @ steady.covariance @ F.T + Q
     gain = predicted[:, 0] / (predicted[0, 0] + R)
     np.testing.assert_allclose(gain, steady.filter_gain, rtol=1e-9, atol=0)
