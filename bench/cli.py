@@ -60,6 +60,18 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _record_length(text: str) -> int:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    exponent = math.log10(value) if value > 0 else math.nan
+    if not (4 <= exponent <= 8 and exponent == round(exponent)):
+        raise argparse.ArgumentTypeError(f"must be a power of ten from 1e4 to 1e8, e.g. 1e6, "
+                                         f"got {text!r}")  # fmt: skip
+    return int(value)
+
+
 def _seed(text: str) -> int:
     try:
         value = int(text)
@@ -263,7 +275,22 @@ def build_parser() -> argparse.ArgumentParser:
     figures.set_defaults(handler=_cmd_paper_figures)
 
     timing = commands.add_parser(
-        "timing", parents=[out, plug], help="throughput of every method vs signal length"
+        "timing",
+        parents=[out, plug],
+        help="throughput and peak memory of every method vs signal length, and the speed "
+        "ratios against the peers",
+    )
+    timing.add_argument(
+        "--largest",
+        type=_record_length,
+        default=10_000_000,
+        help="the longest record timed, a power of ten from 1e4 (default 1e7)",
+    )
+    timing.add_argument(
+        "--no-ratios",
+        dest="ratios",
+        action="store_false",
+        help="leave out the speed ratios against filterpy, scipy and PyNumDiff (about 3 min)",
     )
     timing.set_defaults(handler=_cmd_timing)
 
@@ -727,8 +754,15 @@ def _cmd_recommend_check(args) -> None:
 def _cmd_timing(args) -> None:
     from diffbench.bench import timing
 
-    for path in timing.write_throughput(args.out / "timing", timing.throughput()):
+    sizes = [size for size in timing.SIZES if size <= args.largest] or [args.largest]
+    if args.largest not in sizes:
+        sizes.append(args.largest)
+    table = timing.throughput(sizes=sizes, progress=lambda line: print(line, flush=True))
+    for path in timing.write_throughput(args.out / "timing", table):
         print(path)
+    if args.ratios:
+        for path in timing.write_ratios(args.out / "timing", timing.speed_ratios()):
+            print(path)
 
 
 # --- entry point ---------------------------------------------------------------------------

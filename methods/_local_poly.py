@@ -11,6 +11,7 @@ scipy remains the test oracle where it is accurate.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -64,12 +65,14 @@ def _weighted_fit(half_width: int, degree: int, sample_weights: np.ndarray | Non
 def _evaluation(r: np.ndarray, at_u: np.ndarray, degree: int, order: int) -> np.ndarray:
     """Rows mapping Q^T (sqrt(w) x) to the ``order``-th derivative (in u) of the fitted
     polynomial at each of ``at_u``: shape ``(len(at_u), degree + 1)``."""
-    # Row k: d^n/du^n of the Legendre polynomial P_k at each evaluation point.
-    derivative_rows = np.empty((at_u.size, degree + 1))
-    for k in range(degree + 1):
-        unit = np.zeros(degree + 1)
-        unit[k] = 1.0
-        derivative_rows[:, k] = legendre.legval(at_u, legendre.legder(unit, order))
+    # Column k: d^n/du^n of the Legendre polynomial P_k at each evaluation point (column k
+    # of legder(I) holds the Legendre coefficients of P_k^(n)).
+    if order > degree:
+        derivative_rows = np.zeros((at_u.size, degree + 1))
+    else:
+        derivative_rows = legendre.legvander(at_u, degree - order) @ legendre.legder(
+            np.eye(degree + 1), order
+        )
     return np.linalg.solve(r.T, derivative_rows.T).T
 
 
@@ -90,7 +93,22 @@ def end_evaluators(
     ``left`` and ``right`` of shape ``(m, degree + 1)`` and ``project`` of shape
     ``(degree + 1, 2m + 1)`` (never the ``m x (2m+1)`` weight matrix, which would take gigabytes
     for windows of tens of thousands of samples). Exact on sampled polynomials of ``degree``.
+    Unweighted factors are cached (read-only): a tuning asks for the same ones at every setting.
     """
+    if sample_weights is None:
+        return _unweighted_end_evaluators(half_width, degree, order, float(dt))
+    return _end_evaluators(half_width, degree, order, dt, sample_weights)
+
+
+@functools.lru_cache(maxsize=256)
+def _unweighted_end_evaluators(half_width: int, degree: int, order: int, dt: float):
+    factors = _end_evaluators(half_width, degree, order, dt, None)
+    for factor in factors:
+        factor.setflags(write=False)
+    return factors
+
+
+def _end_evaluators(half_width, degree, order, dt, sample_weights):
     q, r, root_w = _weighted_fit(half_width, degree, sample_weights)
     scale = 1.0 / (half_width * dt) ** order
     offsets = np.arange(1, half_width + 1) / half_width

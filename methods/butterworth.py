@@ -117,7 +117,7 @@ class ButterworthEuler(Method):
         return 3 * (2 * len(sos) + 1 - zeros) + 1
 
     def end_reach(self, dt: float) -> int | None:
-        return settling_steps(self._sos(dt)) + 1
+        return settling_steps(self.order, self.cutoff_hz, float(dt)) + 1
 
     def exact_degree(self, order: int) -> float | None:
         # The odd extension continues a straight line, which the filter (unit DC gain,
@@ -133,7 +133,7 @@ class ButterworthEuler(Method):
 
     def _estimate(self, x, dt, orders):
         sos = self._sos(dt)
-        pad = min(settling_steps(sos), x.shape[0] - 1)
+        pad = min(settling_steps(self.order, self.cutoff_hz, float(dt)), x.shape[0] - 1)
         smoothed = sps.sosfiltfilt(sos, x, axis=0, padtype="odd", padlen=pad)
         values, valid = {}, {}
         every = np.ones(x.shape[0], dtype=bool)
@@ -156,14 +156,11 @@ straight line was off by 3e-10 at the ends)."""
 
 
 @functools.lru_cache(maxsize=256)
-def _settling_steps(poles: tuple[complex, ...]) -> int:
-    radius = max(abs(pole) for pole in poles)
-    return int(np.ceil(np.log(SETTLING) / np.log(radius))) if radius > 0 else 1
-
-
-def settling_steps(sos: np.ndarray) -> int:
-    """Steps until the impulse response of the filter ``sos`` has decayed to 1e-12 of its start,
+def settling_steps(order: int, cutoff_hz: float, dt: float) -> int:
+    """Steps until the impulse response of the Butterworth low-pass of ``order`` and
+    ``cutoff_hz`` at step ``dt`` has decayed to 1e-12 of its start,
     :math:`\\lceil \\ln 10^{-12} / \\ln \\max|p| \\rceil` over its poles p (e.g. 683 for order 6 at
-    25 Hz and 1 kHz)."""
-    _, poles, _ = sps.sos2zpk(sos)
-    return _settling_steps(tuple(np.round(poles, 15)))
+    25 Hz and 1 kHz). The poles are the design's own (no root finding on the sections)."""
+    _, poles, _ = sps.butter(order, cutoff_hz, btype="low", output="zpk", fs=1.0 / dt)
+    radius = float(np.max(np.abs(poles)))
+    return int(np.ceil(np.log(SETTLING) / np.log(radius))) if radius > 0 else 1

@@ -1,6 +1,8 @@
 """The throughput table: every method gets a figure, sizes past a cap are left out and said."""
 
 import numpy as np
+import pandas as pd
+import pytest
 
 from diffbench.bench import timing
 
@@ -14,10 +16,48 @@ def test_a_method_capped_below_the_smallest_size_is_timed_at_its_cap(tmp_path, m
     assert np.all(table["samples_per_s"] > 0)
     assert np.allclose(table["samples_per_s"], table["samples"] / table["seconds"])
     markdown = (timing.write_throughput(tmp_path, table)[0]).read_text(encoding="utf-8")
-    rows = {line.split(" | ")[0].lstrip("| "): line for line in markdown.splitlines()}
+    throughput = markdown.split("## Peak memory")[0]
+    rows = {line.split(" | ")[0].lstrip("| "): line for line in throughput.splitlines()}
     assert "| 1e+03 | 2e+03 | 4e+03 | growth |" in markdown
     # one size timed: no growth, and the two sizes it was not timed at are dashes
     assert rows["finite_difference"].endswith("| — | — | — |")
     assert not rows["savitzky_golay"].endswith("| — |")
     assert rows["savitzky_golay"].split(" | ")[2] == "—"  # not timed at the 1000-sample column
     assert "- finite_difference: timed up to 1000 samples (a cap for this test)" in markdown
+
+
+def test_peak_memory_is_the_calls_own_allocation():
+    if not timing.memory_measurable():
+        pytest.skip("no /proc/self/clear_refs here: peak memory is not measured")
+    big = np.ones(20_000_000)  # held before the call: not counted
+    result, peak = timing.peak_memory_mib(np.full, 10_000_000, 2.0)  # 76.3 MiB
+    assert result.nbytes == 80_000_000 and big.size == 20_000_000
+    assert 76 <= peak < 90
+    _, nothing = timing.peak_memory_mib(lambda: None)
+    assert nothing < 5
+
+
+def test_throughput_reports_memory_growth_and_causal_methods(tmp_path):
+    table = timing.throughput(sizes=(20_000, 40_000), repeats=1,
+                              names=["finite_difference", "causal_butterworth"])  # fmt: skip
+    assert set(table["causal"]) == {False, True}
+    assert table["peak_mib"].notna().all() or not timing.memory_measurable()
+    paths = timing.write_throughput(tmp_path, table)
+    markdown = paths[0].read_text(encoding="utf-8")
+    assert "## Peak memory (MiB above the input" in markdown
+    assert "| causal_butterworth | " in markdown.split("## Peak memory")[1]
+    assert paths[2].name == "growth.png" and paths[2].stat().st_size > 10_000
+
+
+def test_the_speed_ratios_check_that_ours_and_the_peers_agree(tmp_path):
+    kalman = timing.kalman_against_filterpy(samples=50_000, filterpy_samples=2_000, repeats=1)
+    jacobi = timing.jacobi_against_oaconvolve(samples=50_000, repeats=1)
+    assert kalman["agreement"] < 1e-9  # the same smoothed positions as filterpy's
+    assert jacobi["agreement"] < 1e-12  # the same outputs as oaconvolve, relative
+    for row in (kalman, jacobi):
+        assert row["ratio"] == pytest.approx(row["peer_s"] / row["ours_s"])
+    markdown = timing.write_ratios(tmp_path, pd.DataFrame([kalman, jacobi]))[0].read_text(
+        encoding="utf-8"
+    )
+    assert "| Kalman smoother, per sample | kalman (paper-signal preset) | filterpy " in markdown
+    assert "| Jacobi orders 0-2, one call |" in markdown

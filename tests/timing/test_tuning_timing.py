@@ -1,0 +1,63 @@
+"""Oracle tuning of Savitzky-Golay beside PyNumDiff's ``optimize`` on the same 1000 samples
+(paper-signal seed 0, RMSE of ẋ on samples 150..849 for both; PyNumDiff serially, its default
+search space). Target: ours >= 50x faster; `diffbench timing` writes the three pairs of
+results/timing/ratios.md. Compare the rows of `pytest tests/timing/test_tuning_timing.py
+--benchmark-only`; the tuned settings are checked against the truth, no time is asserted.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+from scipy.signal import savgol_filter
+
+from diffbench import methods
+from diffbench.bench import timing, tuning
+
+pynumdiff = pytest.importorskip("pynumdiff")
+DT = 1e-3
+
+
+@pytest.fixture(scope="module")
+def record():
+    return timing._paper_signal_head(1000, 150)
+
+
+def _rmse(estimate, record):
+    inside = np.asarray(record.interior)
+    return float(np.sqrt(np.mean((estimate[inside] - record.truth[1][inside]) ** 2)))
+
+
+@pytest.mark.benchmark(group="oracle-tuning-1000-samples")
+def test_diffbench_oracle_tuning_savitzky_golay(benchmark, record):
+    result = benchmark.pedantic(tuning.tune, args=("savitzky_golay", record, 1, "oracle"),
+                                rounds=1, iterations=1)  # fmt: skip
+    estimate = methods.get("savitzky_golay", **result.params)(record.x, DT, orders=(1,))
+    assert estimate.valid[1][record.interior].all()
+    # the tuner compares losses rounded to 1e-9 of the RMS of the true ẋ (about 1e-7 here)
+    assert _rmse(estimate[1], record) == pytest.approx(result.loss, rel=1e-7)
+    # an independent brute force (scipy's savgol_filter, windows of 11..301 samples every 10,
+    # degrees 2..12, all central on samples 150..849): the tuner finds at least its best
+    best = min(
+        _rmse(savgol_filter(record.x, window, degree, deriv=1, delta=DT), record)
+        for window in range(11, 302, 10)
+        for degree in range(2, min(12, window - 1) + 1)
+    )
+    assert result.loss <= best * (1 + 1e-9)
+
+
+@pytest.mark.benchmark(group="oracle-tuning-1000-samples")
+def test_pynumdiff_optimize_savgoldiff(benchmark, record):
+    from pynumdiff.optimize import optimize
+
+    x, truth = np.asarray(record.x), np.asarray(record.truth[1])
+
+    def run():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return optimize(pynumdiff.savgoldiff, x, DT, dxdt_truth=truth, padding=150,
+                            parallel=False)  # fmt: skip
+
+    params, value = benchmark.pedantic(run, rounds=1, iterations=1)
+    _, derivative = pynumdiff.savgoldiff(x, DT, **params)
+    assert _rmse(derivative, record) == pytest.approx(value, rel=1e-9)
