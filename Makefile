@@ -1,4 +1,4 @@
-# Quick start: `make bench` (runs the paper-signal benchmark, writes results/) and `make test`.
+# Quick start: `make bench` (runs the paper suite, writes results/) and `make test`.
 # Both create .venv with $(PYTHON) (>= 3.10) if it is missing and install diffbench into it.
 PYTHON ?= python3
 VENV ?= .venv
@@ -6,7 +6,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.diffbench-installed
 SEEDS ?= 20
 
-.PHONY: bench test lint check-install clean-venv
+.PHONY: bench studies timing test lint check-install clean-venv
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 10) else "diffbench needs Python >= 3.10; set PYTHON=python3.x")'
@@ -15,49 +15,66 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test,peers,data,dask]'
 	touch $(STAMP)
 
-# Every step resumes from the store (results/store/): a second `make bench` recomputes and
-# re-tunes nothing, and only rewrites the reports (and the timing table).
-# The peers are tuned by the oracle only (the data-only criteria are for picking a setting of
-# ours); the grid and identify-dfki (5000-sample records) hold the native methods and the fast peers
-# (tvrdiff, rbfdiff, polydiff, rtsdiff, the splines and derivative's dense ones cost seconds a call).
-# On the paper signals, the native methods and the fast peers are also tuned on 10 seeds (400
-# evaluations per run), on the interior and on the whole record (edge treatments tuned too).
-# online-paper-signal runs the causal methods at sweeps of their settings, online-2r-loop the
-# same settings in the simulated robot's 1 kHz PD loop (both report in results/online/).
-# recommend-check scores the data-only recommendation on every uniformly sampled noisy
-# scenario (resumes from results/recommend-validation/rows.jsonl); the example recommends on
-# an exported record a user would have (recomputed each time, seeded: the same every time).
+# `make bench`, the paper suite: the paper signal (every native method and the fast peers at
+# their presets, the native methods oracle-tuned for ẋ and ẍ), table I, the paper's figures
+# and the simulated robot, into results/ (its store: results/store/).
+# `make studies`, the long studies, into results/studies/ (their own store): every peer and
+# every tuning criterion on the paper signals (10-seed and whole-record tunings too), the
+# real robot, the online track, the scenario grid and the data-only recommendation checked on
+# every scenario. `make timing`: throughput, peak memory and the speed ratios against the peers
+# (results/timing/). Every step resumes from its store: a rerun recomputes and re-tunes
+# nothing and only rewrites the reports.
+# The grid and identify-dfki (5000-sample records) hold the native methods and the fast peers
+# (tvrdiff, rbfdiff, polydiff, rtsdiff, the splines and derivative's dense ones cost seconds a
+# call); the peers are tuned by the oracle only (the data-only criteria are for picking a
+# setting of ours). online-paper-signal runs the causal methods at sweeps of their settings,
+# online-2r-loop the same settings in the simulated robot's 1 kHz PD loop. recommend-check
+# scores the data-only recommendation on every uniformly sampled noisy scenario; the example
+# recommends on an exported record a user would have (seeded: the same every time).
 GRID_PEERS := pynumdiff.spectraldiff,pynumdiff.butterdiff,pynumdiff.savgoldiff,pynumdiff.kerneldiff,derivative.spectral
 SPECTRAL_PEERS := pynumdiff.spectraldiff,derivative.spectral
+STUDIES := results/studies
 
 bench: $(STAMP)
-	$(BIN)/diffbench run paper-signal --seeds $(SEEDS) --out results
-	$(BIN)/diffbench tune native paper-signal --criteria oracle,no-truth,pynumdiff --orders 1,2 \
-	  --seeds $(SEEDS) --jobs 2 --out results
-	$(BIN)/diffbench tune peers paper-signal --criteria oracle --orders 1,2 --seeds $(SEEDS) \
+	$(BIN)/diffbench run paper-signal --methods native,$(GRID_PEERS) --seeds $(SEEDS) --jobs 2 \
+	  --out results
+	$(BIN)/diffbench tune native paper-signal --criteria oracle --orders 1,2 --seeds $(SEEDS) \
 	  --jobs 2 --out results
-	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal --orders 1,2 --seeds $(SEEDS) \
-	  --tuning-seeds 10 --budget 400 --jobs 2 --out results
-	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal --orders 1,2 --seeds $(SEEDS) \
-	  --tuning-seeds 10 --budget 400 --region whole --jobs 2 --out results
-	$(BIN)/diffbench run paper-signal-4937ms --seeds $(SEEDS) --out results
-	$(BIN)/diffbench tune native,$(SPECTRAL_PEERS) paper-signal-4937ms --criteria oracle \
-	  --orders 1,2 --seeds $(SEEDS) --jobs 2 --out results
-	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal-4937ms --orders 1,2 \
-	  --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --jobs 2 --out results
-	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal-4937ms --orders 1,2 \
-	  --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --region whole --jobs 2 --out results
 	$(BIN)/diffbench run jacobi-influence --seeds $(SEEDS) --out results
-	$(BIN)/diffbench paper-figures --out results
-	$(BIN)/diffbench run robot-sim --seeds $(SEEDS) --jobs 2 --out results
-	$(BIN)/diffbench run identify-dfki --methods native,$(GRID_PEERS) --jobs 2 --out results
-	$(BIN)/diffbench run online-paper-signal --seeds 5 --jobs 2 --out results
-	$(BIN)/diffbench run online-2r-loop --seeds 3 --jobs 2 --out results
-	$(BIN)/diffbench grid --methods native,$(GRID_PEERS),causal --seeds 10 --jobs 2 --out results
-	$(BIN)/diffbench recommend-check --jobs 2 --out results
-	$(BIN)/diffbench export pendulum-500hz-jitter results/recommend-example/pendulum.csv
-	$(BIN)/diffbench recommend results/recommend-example/pendulum.csv --time t --column x \
-	  --dt 0.002 --methods native,$(GRID_PEERS) --out results/recommend-example
+	$(BIN)/diffbench paper-figures --methods native,$(GRID_PEERS) --out results
+	$(BIN)/diffbench run robot-sim --methods native,$(GRID_PEERS) --seeds $(SEEDS) --jobs 2 \
+	  --out results
+
+studies: $(STAMP)
+	$(BIN)/diffbench run paper-signal --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench tune native paper-signal --criteria oracle,no-truth,pynumdiff --orders 1,2 \
+	  --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench tune peers paper-signal --criteria oracle --orders 1,2 --seeds $(SEEDS) \
+	  --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal --orders 1,2 --seeds $(SEEDS) \
+	  --tuning-seeds 10 --budget 400 --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal --orders 1,2 --seeds $(SEEDS) \
+	  --tuning-seeds 10 --budget 400 --region whole --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench run paper-signal-4937ms --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench tune native,$(SPECTRAL_PEERS) paper-signal-4937ms --criteria oracle \
+	  --orders 1,2 --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal-4937ms --orders 1,2 \
+	  --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal-4937ms --orders 1,2 \
+	  --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --region whole --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench paper-figures --out $(STUDIES)
+	$(BIN)/diffbench run robot-sim --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench run identify-dfki --methods native,$(GRID_PEERS) --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench run online-paper-signal --seeds 5 --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench run online-2r-loop --seeds 3 --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench grid --methods native,$(GRID_PEERS),causal --seeds 10 --jobs 2 \
+	  --out $(STUDIES)
+	$(BIN)/diffbench recommend-check --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench export pendulum-500hz-jitter $(STUDIES)/recommend-example/pendulum.csv
+	$(BIN)/diffbench recommend $(STUDIES)/recommend-example/pendulum.csv --time t --column x \
+	  --dt 0.002 --methods native,$(GRID_PEERS) --out $(STUDIES)/recommend-example
+
+timing: $(STAMP)
 	$(BIN)/diffbench timing --out results
 
 lint: $(STAMP)

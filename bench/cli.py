@@ -272,6 +272,13 @@ def build_parser() -> argparse.ArgumentParser:
         default=20,
         help="noise seeds of the error-against-position figure (default 20)",
     )
+    figures.add_argument(
+        "--methods",
+        type=_name_list,
+        default=None,
+        help="the methods drawn, names or groups (all, native, peers), comma-separated "
+        "(default: all)",
+    )
     figures.set_defaults(handler=_cmd_paper_figures)
 
     timing = commands.add_parser(
@@ -677,9 +684,10 @@ def _cmd_paper_figures(args) -> None:
 
     directory = args.out / "paper-figures"
     directory.mkdir(parents=True, exist_ok=True)
-    written = paper.write_figure1(directory) + paper.write_figure2(directory)
-    written += paper.write_figure3(directory) + paper.write_frequency_table(directory)
-    written += paper.write_error_profile(directory, seeds=args.seeds)
+    names = _method_names(args.methods)
+    written = paper.write_figure1(directory, names=names) + paper.write_figure2(directory, names)
+    written += paper.write_figure3(directory) + paper.write_frequency_table(directory, names)
+    written += paper.write_error_profile(directory, seeds=args.seeds, names=names)
     for path in written:
         print(path)
 

@@ -42,9 +42,9 @@ def _db(values) -> np.ndarray:
     return 20 * np.log10(np.maximum(np.abs(values), 1e-300))
 
 
-def figure1_data(seed: int = 0) -> pd.DataFrame:
-    """Errors of ẋ and ẍ over time of every registered method at its paper-signal preset, on
-    one noise seed of the paper scenario.
+def figure1_data(seed: int = 0, names=None) -> pd.DataFrame:
+    """Errors of ẋ and ẍ over time of every method of ``names`` (default: every registered
+    one) at its paper-signal preset, on one noise seed of the paper scenario.
 
     Columns: ``t_s``, ``x_noisy``, ``x_true``, ``velocity_true``, ``acceleration_true``,
     ``interior`` (the samples every method is scored on) and, per method,
@@ -60,7 +60,7 @@ def figure1_data(seed: int = 0) -> pd.DataFrame:
         "acceleration_true": realisation.truth[2],
         "interior": realisation.interior,
     }
-    for name in methods.available():
+    for name in names or methods.available():
         method = methods.preset(name, "paper-signal")
         estimate = method(realisation.x, realisation.dt_s)
         for order, label in ((1, "velocity"), (2, "acceleration")):
@@ -68,11 +68,12 @@ def figure1_data(seed: int = 0) -> pd.DataFrame:
     return pd.DataFrame(frame)
 
 
-def figure2_data() -> pd.DataFrame:
-    """|H(f)| in dB of the second-order estimate of every linear registered method at its
-    paper-signal preset (``<method>_db``) and of the ideal s² (``ideal_db``)."""
+def figure2_data(names=None) -> pd.DataFrame:
+    """|H(f)| in dB of the second-order estimate of every linear method of ``names`` (default:
+    every registered one) at its paper-signal preset (``<method>_db``) and of the ideal s²
+    (``ideal_db``)."""
     frame = {"frequency_hz": FREQUENCIES_HZ, "ideal_db": _db(ideal_response(FREQUENCIES_HZ, 2))}
-    for name in methods.available():
+    for name in names or methods.available():
         method = methods.preset(name, "paper-signal")
         if method.linear:
             frame[f"{name}_db"] = _db(method.frequency_response(FREQUENCIES_HZ, DT, 2))
@@ -93,11 +94,11 @@ def figure3_data() -> pd.DataFrame:
     return pd.DataFrame(frame)
 
 
-def frequency_table(dt: float = DT, probe_hz: float = 15.0) -> pd.DataFrame:
+def frequency_table(dt: float = DT, probe_hz: float = 15.0, names=None) -> pd.DataFrame:
     """Per linear method at its paper-signal preset and order 1, 2: -3 dB cutoff (relative
     to the ideal), white-noise gain, and |H| at ``probe_hz`` against the ideal, in dB."""
     records = []
-    for name in methods.available():
+    for name in names or methods.available():
         method = methods.preset(name, "paper-signal")
         source = methods.preset_spec(name, "paper-signal").source
         if not method.linear:
@@ -217,11 +218,11 @@ def _error_figure(n_methods: int, header_rows: int):
     return fig, grid
 
 
-def write_figure1(directory: Path, seed: int = 0) -> list[Path]:
+def write_figure1(directory: Path, seed: int = 0, names=None) -> list[Path]:
     """``fig1_errors.csv`` (:func:`figure1_data`) and ``fig1_errors.png`` drawn from it: the
     signal, the true derivatives, then each method's errors of ẋ and ẍ in its own row."""
     csv = directory / "fig1_errors.csv"
-    figure1_data(seed).to_csv(csv, index=False)
+    figure1_data(seed, names).to_csv(csv, index=False)
     data = pd.read_csv(csv)
     names = _methods_in(data.columns, "_velocity_error")
     fig, grid = _error_figure(len(names), header_rows=2)
@@ -245,11 +246,11 @@ def write_figure1(directory: Path, seed: int = 0) -> list[Path]:
     return [csv, figures.save_figure(fig, directory / "fig1_errors.png", tight=False)]
 
 
-def write_figure2(directory: Path) -> list[Path]:
+def write_figure2(directory: Path, names=None) -> list[Path]:
     """``fig2_bode.csv`` (:func:`figure2_data`) and ``fig2_bode.png``: |H| of every linear
     method against the ideal s² (the paper's view), and |H| relative to the ideal."""
     csv = directory / "fig2_bode.csv"
-    figure2_data().to_csv(csv, index=False)
+    figure2_data(names).to_csv(csv, index=False)
     data = pd.read_csv(csv)
     names = [name for name in _methods_in(data.columns, "_db") if name != "ideal"]
     styles = figures.method_styles(names)
@@ -314,12 +315,12 @@ def write_figure3(directory: Path) -> list[Path]:
     return [csv, figures.save_figure(fig, directory / "fig3_parameters.png")]
 
 
-def write_frequency_table(directory: Path) -> list[Path]:
+def write_frequency_table(directory: Path, names=None) -> list[Path]:
     """``frequency.md`` / ``.csv``: cutoff, white-noise gain and gain at 15 Hz per linear
     method at its paper-signal preset (the Markdown from what the CSV holds)."""
     from diffbench.bench import tables
 
-    csv = tables.write_csv(directory / "frequency.csv", frequency_table())
+    csv = tables.write_csv(directory / "frequency.csv", frequency_table(names=names))
     stored = pd.read_csv(csv)
     shown = pd.DataFrame({
         "method": stored["method"], "n": stored["order"].astype(str),
@@ -453,14 +454,14 @@ def ends_table(profile: pd.DataFrame, end_fraction: float = END_FRACTION) -> pd.
     return pd.DataFrame(records)
 
 
-def write_error_profile(directory: Path, seeds: int = 20) -> list[Path]:
+def write_error_profile(directory: Path, seeds: int = 20, names=None) -> list[Path]:
     """``error_vs_position.csv`` (:func:`error_profile_data`), ``error_vs_position.png`` drawn
     from it (RMS error of ẋ and ẍ against position, log scale, one line per method) and
     ``ends.md``/``.csv`` (:func:`ends_table`)."""
     from diffbench.bench import tables
 
     csv = directory / "error_vs_position.csv"
-    error_profile_data(seeds).to_csv(csv, index=False)
+    error_profile_data(seeds, names).to_csv(csv, index=False)
     data = pd.read_csv(csv)
     names = _methods_in(data.columns, "_velocity_rms_error")
     styles = figures.method_styles(names)
