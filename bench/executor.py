@@ -132,10 +132,15 @@ class Terminated(BaseException):
 
 
 def terminate_on_sigterm():
-    """Turn SIGTERM into a :class:`Terminated` exception, so cleanup code runs; returns the
-    handler it replaced (give it back to ``signal.signal`` when done)."""
+    """Turn SIGTERM into a :class:`Terminated` exception in this process, so cleanup code runs;
+    returns the handler it replaced (give it back to ``signal.signal`` when done). A process
+    forked from this one (a library's own pool, such as PyNumDiff's ``optimize``) inherits the
+    handler but is terminated as by default, without a traceback."""
+    owner = os.getpid()
 
     def handler(signum, frame):
+        if os.getpid() != owner:
+            os._exit(128 + signum)
         raise Terminated
 
     return signal.signal(signal.SIGTERM, handler)
