@@ -762,9 +762,7 @@ def _cmd_recommend_check(args) -> None:
 def _cmd_timing(args) -> None:
     from diffbench.bench import timing
 
-    sizes = [size for size in timing.SIZES if size <= args.largest] or [args.largest]
-    if args.largest not in sizes:
-        sizes.append(args.largest)
+    sizes = [size for size in timing.SIZES if size < args.largest] + [args.largest]
     table = timing.throughput(sizes=sizes, progress=lambda line: print(line, flush=True))
     for path in timing.write_throughput(args.out / "timing", table):
         print(path)

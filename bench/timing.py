@@ -58,6 +58,13 @@ def timing_instance(name: str) -> methods.Method:
     return methods.get(name, **preset_entry(name, "paper-signal").params)
 
 
+def noisy_sine(size: int, noise_std: float) -> np.ndarray:
+    """A 4 Hz unit sine sampled every ``DT`` seconds, plus white Gaussian noise of standard
+    deviation ``noise_std`` seeded by ``size``: the record every timing runs on."""
+    t = np.arange(size) * DT
+    return np.sin(2 * np.pi * 4 * t) + noise_std * np.random.default_rng(size).standard_normal(size)
+
+
 SIZES = (10_000, 100_000, 1_000_000, 10_000_000)
 """The record lengths timed: the cost of each method should grow linearly across them."""
 
@@ -72,8 +79,9 @@ def _status_kib(field: str) -> int:
     raise KeyError(field)
 
 
-def memory_measurable() -> bool:
-    """True where the peak resident memory can be reset and read (Linux ``/proc``)."""
+def _reset_peak() -> bool:
+    """Reset the kernel's high-water mark of resident memory to the current resident memory
+    (``/proc/self/clear_refs`` = 5, Linux >= 4.0); False where it cannot be reset or read."""
     try:
         _CLEAR_REFS.write_text("5", encoding="ascii")
         _status_kib("VmHWM")
@@ -82,13 +90,18 @@ def memory_measurable() -> bool:
     return True
 
 
+def memory_measurable() -> bool:
+    """True where the peak resident memory can be reset and read (Linux ``/proc``)."""
+    return _reset_peak()
+
+
 def peak_memory_mib(function, *args, **kwargs) -> tuple[object, float]:
     """Call ``function`` and return its result and its peak resident memory above what the
     process held when it was called, in MiB (NaN where :func:`memory_measurable` is false).
 
-    The kernel's high-water mark is reset first (``/proc/self/clear_refs`` = 5, Linux ≥ 4.0),
-    so the peak is the call's own: its outputs and temporaries, not the input."""
-    if not memory_measurable():
+    The kernel's high-water mark is reset first (:func:`_reset_peak`), so the peak is the
+    call's own: its outputs and temporaries, not the input."""
+    if not _reset_peak():
         return function(*args, **kwargs), float("nan")
     before = _status_kib("VmRSS")
     result = function(*args, **kwargs)
@@ -110,9 +123,7 @@ def throughput(sizes=SIZES, repeats: int = 3, names=None, progress=None) -> pd.D
         method(np.zeros(min(5000, timed[0] // 4)), DT)  # warm-up: lazy imports, kernel caches
         times = {}
         for size in timed:
-            t = np.arange(size) * DT
-            x = np.sin(2 * np.pi * 4 * t) + 0.01 * np.random.default_rng(size).standard_normal(size)
-            del t
+            x = noisy_sine(size, 0.01)
             best, peak = np.inf, float("nan")
             for run in range(repeats if size < 1_000_000 else 1):
                 start = time.perf_counter()
@@ -235,11 +246,6 @@ def filterpy_smoother(x: np.ndarray, model, mean0: np.ndarray, covariance0: np.n
     return kf.rts_smoother(means, covariances)[0][:, :, 0]
 
 
-def _noisy_sine(size: int) -> np.ndarray:
-    t = np.arange(size) * DT
-    return np.sin(2 * np.pi * 4 * t) + 0.05 * np.random.default_rng(size).standard_normal(size)
-
-
 def kalman_against_filterpy(samples: int = 1_000_000, filterpy_samples: int = 20_000,
                             repeats: int = 3) -> dict:  # fmt: skip
     """The Kalman smoother (paper-signal preset) against filterpy's ``batch_filter`` +
@@ -249,7 +255,7 @@ def kalman_against_filterpy(samples: int = 1_000_000, filterpy_samples: int = 20
     from diffbench.methods.kalman import initial_state
 
     kalman = methods.preset("kalman", "paper-signal")
-    x = _noisy_sine(samples)
+    x = noisy_sine(samples, 0.05)
     kalman(x[:10_000], DT)
     ours = _best_seconds(lambda: kalman(x, DT), repeats) / samples
     short = x[:filterpy_samples]
