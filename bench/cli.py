@@ -18,7 +18,7 @@ from importlib import metadata
 from pathlib import Path
 
 from diffbench import methods
-from diffbench.bench import executor, runner
+from diffbench.bench import executor, runner, uptodate
 from diffbench.bench.executor import Terminated, terminate_on_sigterm
 from diffbench.bench.provenance import provenance
 from diffbench.bench.store import Store, set_command
@@ -525,7 +525,12 @@ def _report(task, store: Store, out: Path) -> list[Path]:
             f"no stored results of {task.name} in {store.directory}; run "
             f"`diffbench run {task.name} --out {out}` first"
         )
-    written = task.report(cells, store.tunings_frame(), out / task.folder)
+    key = uptodate.inputs_key(
+        {"report": task.name, "folder": task.folder}, [store.cells.path, store.tunings.path]
+    )
+    written = uptodate.report_once(
+        out / task.folder, key, lambda: task.report(cells, store.tunings_frame(), out / task.folder)
+    )
     current = provenance()["git_rev"]
     others = sorted(r[:12] for r in set(cells["git_rev"]) - {current})
     if others:
@@ -675,7 +680,11 @@ def _cmd_grid(args) -> None:
     cells = grid.cells(found, range(args.seeds))
     _say(_run_cells(cells, store, args))
     store.refresh()
-    for path in grid.write_winners(store.cells_frame(grid.task_names()), args.out / "grid"):
+    key = uptodate.inputs_key({"report": "grid"}, [store.cells.path])
+    directory = args.out / "grid"
+    for path in uptodate.report_once(
+        directory, key, lambda: grid.write_winners(store.cells_frame(grid.task_names()), directory)
+    ):
         print(path)
 
 
@@ -685,10 +694,15 @@ def _cmd_paper_figures(args) -> None:
     directory = args.out / "paper-figures"
     directory.mkdir(parents=True, exist_ok=True)
     names = _method_names(args.methods)
-    written = paper.write_figure1(directory, names=names) + paper.write_figure2(directory, names)
-    written += paper.write_figure3(directory) + paper.write_frequency_table(directory, names)
-    written += paper.write_error_profile(directory, seeds=args.seeds, names=names)
-    for path in written:
+
+    def write() -> list[Path]:
+        written = paper.write_figure1(directory, names=names)
+        written += paper.write_figure2(directory, names) + paper.write_figure3(directory)
+        written += paper.write_frequency_table(directory, names)
+        return written + paper.write_error_profile(directory, seeds=args.seeds, names=names)
+
+    key = uptodate.inputs_key({"report": "paper-figures", "methods": names, "seeds": args.seeds})
+    for path in uptodate.report_once(directory, key, write):
         print(path)
 
 

@@ -18,6 +18,7 @@ error naming it.
 
 from __future__ import annotations
 
+import functools
 import importlib
 import os
 import threading
@@ -141,9 +142,17 @@ def load_automatic_plugins() -> None:
                     raise ValueError(f"${ENV_VARIABLE}: {error}") from None
 
 
+@functools.cache
+def distributions_of_modules() -> dict[str, list[str]]:
+    """``importlib.metadata.packages_distributions()`` (top-level module -> distributions),
+    read once per process: it reads every installed distribution's file list (about a second
+    each time)."""
+    return metadata.packages_distributions()
+
+
 def _distribution_of(module: str) -> tuple[str | None, str | None]:
     top = module.split(".")[0]
-    names = metadata.packages_distributions().get(top, [])
+    names = distributions_of_modules().get(top, [])
     if not names:
         return None, None
     return names[0], metadata.version(names[0])

@@ -20,7 +20,11 @@ import numpy as np
 
 from diffbench.methods._ends import mask_untrusted, trusted_samples
 from diffbench.methods._fir import apply_central_firs, fir_response
-from diffbench.methods._plugins import load_automatic_plugins, missing_hint
+from diffbench.methods._plugins import (
+    distributions_of_modules,
+    load_automatic_plugins,
+    missing_hint,
+)
 from diffbench.methods._time_stamps import from_grid, to_grid, uniform_grid
 from diffbench.methods._validation import (
     MAX_WINDOW_STEPS,
@@ -542,11 +546,10 @@ def package_of(name: str) -> str:
 
 @functools.cache
 def _package_of_class(cls: type[Method]) -> str:
-    # once per class: packages_distributions() reads every installed distribution's metadata
     package = cls.package
     if package is None:
         top = cls.__module__.split(".")[0]
-        names = metadata.packages_distributions().get(top, [])
+        names = [] if top == "diffbench" else distributions_of_modules().get(top, [])
         package = "diffbench" if top == "diffbench" else (names[0] if names else top)
     try:
         return f"{package} {metadata.version(package)}"

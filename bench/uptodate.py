@@ -1,0 +1,106 @@
+"""Reports already written from the same inputs are not written again.
+
+A report (its tables and figures) is a deterministic function of its inputs: the stored rows it
+reads, the command's options and the code (diffbench's files and the versions of what it runs
+on). Rerunning ``make bench`` with everything stored would otherwise redraw every figure and
+recompute the paper's figures, most of a rerun's time. So each report directory keeps, beside
+its files, the key of the inputs it was written from and the list of files written
+(:data:`KEY_FILE`, not committed); a rerun whose key matches and whose files all still exist
+skips the report and lists the same files.
+
+The key is conservative: any change of diffbench's code or data files, of a package version, of
+the options, or of the store files read (any appended row, whatever its task) writes the report
+again.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import os
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+from diffbench.bench.provenance import provenance
+
+KEY_FILE = ".diffbench-report.json"
+"""The file, in a report's directory, holding the key and the files of its last writing."""
+
+_PACKAGE_DIRECTORIES = ("methods", "signals", "bench")
+
+
+@functools.cache
+def _source_digest() -> str:
+    """SHA-256 over every file of diffbench's packages (relative path and bytes, sorted by
+    path; compiled caches left out)."""
+    root = Path(__file__).resolve().parent.parent
+    digest = hashlib.sha256()
+    for directory in _PACKAGE_DIRECTORIES:
+        for path in sorted((root / directory).rglob("*")):
+            if path.is_file() and "__pycache__" not in path.parts:
+                digest.update(str(path.relative_to(root)).encode())
+                digest.update(b"\0")
+                digest.update(path.read_bytes())
+                digest.update(b"\0")
+    return digest.hexdigest()
+
+
+def code_fingerprint() -> str:
+    """What the code is: diffbench's files, the interpreter, BLAS, package and plugin
+    versions (:func:`diffbench.bench.provenance.provenance`)."""
+    return f"{_source_digest()};{provenance()['versions']}"
+
+
+def file_digest(path: Path) -> str:
+    """SHA-256 of the file's bytes, ``absent`` for a missing file."""
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except FileNotFoundError:
+        return "absent"
+
+
+def inputs_key(options: dict, files: Iterable[Path] = ()) -> str:
+    """The key of a report written with ``options`` (JSON-able) from ``files`` by this code."""
+    content = {
+        "code": code_fingerprint(),
+        "options": options,
+        "files": [(Path(path).name, file_digest(path)) for path in files],
+    }
+    return hashlib.sha256(json.dumps(content, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def written_before(directory: Path, key: str) -> list[Path] | None:
+    """The files of ``directory``'s last report if it was written from ``key`` and they all
+    exist; otherwise None."""
+    directory = Path(directory)
+    try:
+        last = json.loads((directory / KEY_FILE).read_text())
+        files = [directory / path for path in last["files"]]
+        same = last["key"] == key
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    return files if same and all(path.is_file() for path in files) else None
+
+
+def remember(directory: Path, key: str, written: list[Path]) -> None:
+    """Record that ``written`` (files in or under ``directory``) came from ``key`` (written to
+    a temporary file first, then renamed: a killed run leaves the old record or the new)."""
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    temporary = directory / (KEY_FILE + ".tmp")
+    files = [os.path.relpath(path, directory) for path in written]
+    temporary.write_text(json.dumps({"key": key, "files": files}, indent=1))
+    os.replace(temporary, directory / KEY_FILE)
+
+
+def report_once(directory: Path, key: str, write: Callable[[], list[Path]]) -> list[Path]:
+    """The files ``write()`` writes into ``directory``, written only when the last report there
+    did not come from the same ``key`` (see the module docstring)."""
+    before = written_before(directory, key)
+    if before is not None:
+        return before
+    (Path(directory) / KEY_FILE).unlink(missing_ok=True)
+    written = list(write())
+    remember(directory, key, written)
+    return written
