@@ -41,7 +41,7 @@ bench: $(STAMP)
 	$(BIN)/diffbench tune native paper-signal --criteria oracle --orders 1,2 --seeds $(SEEDS) \
 	  --jobs 2 --out results
 	$(BIN)/diffbench run jacobi-influence --seeds $(SEEDS) --out results
-	$(BIN)/diffbench paper-figures --methods native,$(GRID_PEERS) --out results
+	$(BIN)/diffbench paper-figures --methods native,$(GRID_PEERS) --jobs 2 --out results
 	$(BIN)/diffbench run robot-sim --methods native,$(GRID_PEERS) --seeds $(SEEDS) --jobs 2 \
 	  --out results
 
@@ -62,7 +62,7 @@ studies: $(STAMP)
 	  --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal-4937ms --orders 1,2 \
 	  --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --region whole --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench paper-figures --out $(STUDIES)
+	$(BIN)/diffbench paper-figures --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench run robot-sim --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench run identify-dfki --methods native,$(GRID_PEERS) --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench run online-paper-signal --seeds 5 --jobs 2 --out $(STUDIES)

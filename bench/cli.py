@@ -263,7 +263,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     figures = commands.add_parser(
         "paper-figures",
-        parents=[out, plug],
+        parents=[out, work, plug],
         help="the paper's figures 1-3 (PNG + CSV), frequency table, error against position",
     )
     figures.add_argument(
@@ -699,7 +699,7 @@ def _cmd_paper_figures(args) -> None:
         written = paper.write_figure1(directory, names=names)
         written += paper.write_figure2(directory, names) + paper.write_figure3(directory)
         written += paper.write_frequency_table(directory, names)
-        return written + paper.write_error_profile(directory, seeds=args.seeds, names=names)
+        return written + paper.write_error_profile(directory, args.seeds, names, args.jobs)
 
     key = uptodate.inputs_key({"report": "paper-figures", "methods": names, "seeds": args.seeds})
     for path in uptodate.report_once(directory, key, write):

@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from diffbench import methods, signals
-from diffbench.bench import figures
+from diffbench.bench import executor, figures
 from diffbench.bench.frequency import cutoff_hz, ideal_response, noise_gain
 
 DT = 1e-3
@@ -405,7 +405,16 @@ END_FRACTION = 0.05
 """Each end of the record, as a fraction of its samples, in the ends-versus-middle table."""
 
 
-def error_profile_data(seeds: int = 20, names=None) -> pd.DataFrame:
+def _squared_errors(item: tuple[str, int]) -> dict[int, np.ndarray]:
+    """Squared errors of ẋ and ẍ at every sample of method ``name`` (paper-signal preset) on
+    the paper scenario's noise seed ``seed``; ``item`` is ``(name, seed)``."""
+    name, seed = item
+    realisation = signals.get_scenario(SCENARIO).realise(seed)
+    estimate = methods.preset(name, "paper-signal")(realisation.x, realisation.dt_s)
+    return {order: (estimate[order] - realisation.truth[order]) ** 2 for order in (1, 2)}
+
+
+def error_profile_data(seeds: int = 20, names=None, jobs=1) -> pd.DataFrame:
     """RMS error over noise seeds at each sample of the paper scenario, for ẋ and ẍ of every
     method named (default: every registered one) at its paper-signal preset.
 
@@ -413,19 +422,22 @@ def error_profile_data(seeds: int = 20, names=None) -> pd.DataFrame:
     x^{(n)}_i)^2}` over the :math:`S` seeds (NaN where the method gives no estimate). Columns:
     ``t_s``, ``position`` (:math:`i/(N-1)`), ``interior`` and, per method,
     ``<method>_velocity_rms_error`` and ``<method>_acceleration_rms_error``.
+
+    ``jobs``: where each (method, seed) runs (:func:`diffbench.bench.executor.ordered_map`);
+    the sums are taken here in seed order, so the result is the same bits for any ``jobs``.
     """
-    scenario = signals.get_scenario(SCENARIO)
-    realisations = [scenario.realise(seed) for seed in range(seeds)]
-    first = realisations[0]
+    first = signals.get_scenario(SCENARIO).realise(0)
     n = len(first.t)
     frame = {"t_s": first.t, "position": np.arange(n) / (n - 1), "interior": first.interior}
-    for name in names or methods.available():
-        method = methods.preset(name, "paper-signal")
+    names = list(names or methods.available())
+    items = [(name, seed) for name in names for seed in range(seeds)]
+    results = executor.ordered_map(_squared_errors, items, jobs)
+    for name in names:
         squares = {1: np.zeros(n), 2: np.zeros(n)}
-        for realisation in realisations:
-            estimate = method(realisation.x, realisation.dt_s)
+        for _ in range(seeds):
+            squared = next(results)
             for order in squares:
-                squares[order] += (estimate[order] - realisation.truth[order]) ** 2
+                squares[order] += squared[order]
         for order, label in ((1, "velocity"), (2, "acceleration")):
             frame[f"{name}_{label}_rms_error"] = np.sqrt(squares[order] / seeds)
     return pd.DataFrame(frame)
@@ -454,14 +466,14 @@ def ends_table(profile: pd.DataFrame, end_fraction: float = END_FRACTION) -> pd.
     return pd.DataFrame(records)
 
 
-def write_error_profile(directory: Path, seeds: int = 20, names=None) -> list[Path]:
+def write_error_profile(directory: Path, seeds: int = 20, names=None, jobs=1) -> list[Path]:
     """``error_vs_position.csv`` (:func:`error_profile_data`), ``error_vs_position.png`` drawn
     from it (RMS error of ẋ and ẍ against position, log scale, one line per method) and
     ``ends.md``/``.csv`` (:func:`ends_table`)."""
     from diffbench.bench import tables
 
     csv = directory / "error_vs_position.csv"
-    error_profile_data(seeds, names).to_csv(csv, index=False)
+    error_profile_data(seeds, names, jobs).to_csv(csv, index=False)
     data = pd.read_csv(csv)
     names = _methods_in(data.columns, "_velocity_rms_error")
     styles = figures.method_styles(names)

@@ -88,7 +88,7 @@ def search_space(name: str, dt: float, n_samples: int,
         if spec.ends_only and region != "whole":
             continue
         if spec.choices is not None:
-            if len(spec.choices) > 1:
+            if len(spec.choices) > 1 and not spec.untuned:
                 dimensions.append(Dimension(spec.name, "choice", 0, 0, choices=spec.choices))
             continue
         if spec.tune_low is None:

@@ -68,10 +68,11 @@ class Param:
     otherwise (one of :data:`PARAM_KINDS`, checked at registration); the kind also says how a
     default that does not fit the step is adapted (:meth:`Method.at_step`). Limits that
     depend on the sampling step are checked by the method's ``check_step(dt)``, not here.
-    ``untuned`` says why a numeric parameter has no tuning range (the tuners leave it at its
-    value). ``ends_only``: the parameter changes the estimate only near the ends of the record
-    (an edge treatment), so only a loss taken on the whole record tunes it; a loss on the
-    interior leaves it at its value.
+    ``untuned`` says why a parameter is not tuned: a numeric one without a tuning range, or one
+    with ``choices`` the tuners leave at its value (e.g. one that trades cost for precision).
+    ``ends_only``: the parameter changes the estimate only near the ends of the record (an
+    edge treatment), so only a loss taken on the whole record tunes it; a loss on the interior
+    leaves it at its value.
     """
 
     name: str

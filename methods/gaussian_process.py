@@ -467,6 +467,8 @@ class GaussianProcessMarginalLikelihood(Method):
         choices=FIT_SAMPLES,
         integer=True,
         doc="most samples the marginal likelihood sees (cost, not smoothing)",
+        untuned="trades the fit's cost for its precision, not a smoothing: a tuner would "
+        "pick the slowest",
     )
     presets = {
         "paper-signal": Preset(

@@ -122,6 +122,12 @@ def test_paper_figures_command_writes_everything(tmp_path, capsys):
     assert re.search(r"\| jacobi +\| 2 +\|", frequency)
 
 
+def test_error_profile_on_two_processes_is_the_same_bits():
+    serial = paper.error_profile_data(3, names=["jacobi", "butterworth"])
+    parallel = paper.error_profile_data(3, names=["jacobi", "butterworth"], jobs=2)
+    pd.testing.assert_frame_equal(serial, parallel, check_exact=True)
+
+
 def test_error_profile_is_the_rms_over_seeds_at_each_sample():
     seeds = 3
     profile = paper.error_profile_data(seeds, names=["jacobi", "spectral"])

@@ -404,3 +404,12 @@ def test_irregular_samples_are_tuned_at_their_time_stamps_by_the_oracle_only():
     ignoring = methods.get("finite_difference", **found.params)(realisation.x, realisation.dt_s)
     wrong = float(np.sqrt(np.mean((ignoring[1] - realisation.truth[1])[inside] ** 2)))
     assert abs(wrong - found.loss) > 0.1 * found.loss  # not the score on the nominal grid
+
+
+def test_a_choice_declared_untuned_is_left_at_its_value():
+    # gaussian_process_ml's fit_samples trades cost for precision: not searched
+    assert tuning.search_space("gaussian_process_ml", 1e-3, 2501) == []
+    assert methods.params_of(methods.method_class("gaussian_process_ml"))[0].untuned
+    # a choice with no reason given is searched (kalman's model order)
+    kalman = {d.name: d for d in tuning.search_space("kalman", 1e-3, 2501)}
+    assert kalman["model_order"].kind == "choice" and len(kalman["model_order"].choices) > 1
