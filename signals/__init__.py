@@ -1,13 +1,14 @@
 """diffbench signals: clean test signals with exact derivatives, seeded noise models, and the
 named scenarios every method is benchmarked on (Guo et al., AIM 2015, section III.C); the
 paper's 2R robot (``signals.robot2r``: model, regressor, closed-loop simulation) and the real
-DFKI double pendulum recordings (``signals.dfki``: loader and model).
+DFKI double pendulum recordings (``signals.dfki``: loader and model); random signals with
+known spectra and the bound on any differentiator's error on them (``signals.stochastic``).
 
 This package imports only NumPy, SciPy and the standard library; its only I/O is reading the
 recordings packaged with it (``signals/data``, BSD-3, licence beside the data).
 """
 
-from diffbench.signals import dfki, robot2r
+from diffbench.signals import dfki, robot2r, stochastic
 from diffbench.signals.clean import (
     Chirp,
     DampedOscillation,
@@ -35,6 +36,7 @@ from diffbench.signals.scenarios import (
     get_scenario,
     register_scenario,
 )
+from diffbench.signals.stochastic import IntegratedWhiteNoise, Matern, RandomSignal
 from diffbench.signals.timing import Dropout, Jitter, SamplingModel
 
 __all__ = [
@@ -42,13 +44,16 @@ __all__ = [
     "DampedOscillation",
     "Dropout",
     "Gaussian",
+    "IntegratedWhiteNoise",
     "Jitter",
+    "Matern",
     "NoiseModel",
     "NoiseStack",
     "PaperSines",
     "Poisson",
     "Polynomial",
     "Quantisation",
+    "RandomSignal",
     "Realisation",
     "SamplingModel",
     "Scenario",
@@ -64,4 +69,5 @@ __all__ = [
     "register_signal",
     "robot2r",
     "signal_class",
+    "stochastic",
 ]

@@ -106,7 +106,9 @@ class Scenario:
     name : str
         Registry key, non-empty.
     signal : Signal
-        The clean signal (with exact derivatives).
+        The clean signal (with exact derivatives); a random one
+        (:mod:`diffbench.signals.stochastic`) is drawn for each seed from the generator
+        ``default_rng([2, seed])``, apart from the noise's and the sampling's.
     noise : NoiseStack
         The noise added to it (an empty stack for a clean scenario).
     dt_s : float
@@ -211,7 +213,10 @@ class Scenario:
             rng = np.random.default_rng([1, seed])
             for model in self.sampling:
                 t = model.times(t, self.dt_s, rng)
-        truth = self.signal.evaluate(t)
+        if getattr(self.signal, "random", False):  # a realisation of its own, apart from the noise
+            truth = self.signal.draw(t, np.random.default_rng([2, seed]))
+        else:
+            truth = self.signal.evaluate(t)
         noisy, noise = self.noise.apply(t, truth[0], np.random.default_rng(seed))
         return Realisation(
             t=t,

@@ -25,6 +25,7 @@ from diffbench.signals import (
 )
 
 BUILTIN = ["chirp", "damped_oscillation", "paper_sines", "polynomial"]
+RANDOM = ["integrated_white_noise", "matern"]  # drawn, not evaluated: tests/signals/test_stochastic
 
 # Dyadic times and steps: t ± h is then exact in binary floating point, so the finite
 # differences below see exactly the step they divide by.
@@ -254,7 +255,7 @@ def test_truth_is_frozen_and_read_only():
 
 
 def test_available_signals_lists_the_builtins_sorted():
-    assert available_signals() == BUILTIN
+    assert available_signals() == sorted(BUILTIN + RANDOM)
     assert signal_class("chirp") is Chirp
     assert signals.get_signal("damped_oscillation").name == "damped_oscillation"
 
