@@ -409,9 +409,13 @@ def _cmd_list(args) -> None:
     for name in available_tasks(listed_only=True):
         task = get_task(name)
         print(f"  {name} [{task.kind}]: {task.description}")
-    grid = [n for n in available_tasks() if not get_task(n).listed]
-    if grid:
-        print(f"  ... and {len(grid)} grid tasks ({grid[0]} ... {grid[-1]}; diffbench grid)")
+    unlisted = [n for n in available_tasks() if not get_task(n).listed]
+    for prefix, kind, how in (("grid-", "grid", "diffbench grid"),
+                              ("limit-", "limit (random signals, known least error)",
+                               "diffbench run TASK")):  # fmt: skip
+        names = [n for n in unlisted if n.startswith(prefix)]
+        if names:
+            print(f"  ... and {len(names)} {kind} tasks ({names[0]} ... {names[-1]}; {how})")
 
 
 def _load_plugins(modules: list[str]) -> None:
@@ -745,7 +749,9 @@ def _cmd_recommend_check(args) -> None:
     scenarios = args.scenarios or [
         name
         for name in signals.available_scenarios()
-        if not (scenario := signals.get_scenario(name)).sampling and scenario.noise.models
+        if not (scenario := signals.get_scenario(name)).sampling
+        and scenario.noise.models
+        and not name.startswith("limit-")  # the random signals have their own study
     ]
     with user_input("--scenarios: "):
         for name in scenarios:

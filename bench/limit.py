@@ -13,8 +13,10 @@ dynamic systems", AIAA J. 3 (1965); Anderson & Moore, *Optimal Filtering* (1979)
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 
-from diffbench.signals.stochastic import GaussMarkov
+from diffbench.signals.noise import Gaussian
+from diffbench.signals.stochastic import GaussMarkov, smoother_bound
 
 
 def optimal_states(
@@ -57,3 +59,89 @@ def optimal_states(
             smoothed = means[j] + smoother @ (smoothed - A @ means[j])
             means[j] = smoothed
     return means[:, :, 0] if y.ndim == 1 else means
+
+
+def scenario_bound(scenario, order: int, causal: bool = False) -> float:
+    """The least mean squared error of the derivative of ``order`` any method can reach on
+    the interior of ``scenario`` (a Gauss–Markov signal in white Gaussian noise, uniformly
+    sampled): :func:`diffbench.signals.stochastic.smoother_bound` (``causal``: from past
+    samples only)."""
+    models = scenario.noise.models
+    if not (isinstance(scenario.signal, GaussMarkov) and len(models) == 1
+            and isinstance(models[0], Gaussian) and not scenario.sampling):  # fmt: skip
+        raise ValueError(
+            f"scenario {scenario.name!r} has no known bound: it needs a Gauss–Markov signal "
+            "(diffbench.signals.stochastic) in white Gaussian noise, uniformly sampled"
+        )
+    return smoother_bound(scenario.signal, scenario.dt_s, models[0].std, order, causal)
+
+
+EFFICIENCY_CONFIDENCE = 0.95
+
+
+def efficiency_table(cells: pd.DataFrame, causal_methods=frozenset()) -> pd.DataFrame:
+    r"""Per task, entry (method, setting, role) and derivative order: the mean squared error
+    on the interior over the seeds, :math:`\overline{\mathrm{MSE}} = \frac1S\sum_s
+    \mathrm{RMSE}_s^2`, and the **efficiency** :math:`\eta = \mathrm{MMSE}/\overline{\mathrm{MSE}}`
+    (1: optimal), with a 95 % interval from the seeds' spread (the delta method:
+    :math:`\eta \pm t\,\eta\,\mathrm{SE}/\overline{\mathrm{MSE}}`). The bound is the smoother's,
+    or the filter's for the methods named in ``causal_methods``. Only tasks on scenarios with a
+    bound (:func:`scenario_bound`)."""
+    from scipy import stats
+
+    from diffbench import signals
+
+    rows = cells[(cells["region"] == "interior") & (cells["metric"] == "rmse")
+                 & (cells["order"] >= 1)]  # fmt: skip
+    records = []
+    keys = ["task", "method", "params", "role", "order"]
+    for (task, method, params, role, order), group in rows.groupby(keys, sort=True):
+        squares = group["value"].to_numpy(dtype=float) ** 2
+        if not np.isfinite(squares).all() or squares.size < 2:
+            continue
+        scenario = signals.get_scenario(task)
+        causal = method in causal_methods
+        bound = scenario_bound(scenario, int(order), causal)
+        mse = float(squares.mean())
+        standard_error = float(squares.std(ddof=1) / np.sqrt(squares.size))
+        efficiency = bound / mse
+        half = float(stats.t.ppf(0.5 + EFFICIENCY_CONFIDENCE / 2, squares.size - 1)
+                     * efficiency * standard_error / mse)  # fmt: skip
+        records.append({"task": task, "method": method, "params": params, "role": role,
+                        "order": int(order), "seeds": int(squares.size), "mse": mse,
+                        "mse_se": standard_error, "bound": bound, "causal_bound": causal,
+                        "efficiency": efficiency, "efficiency_half_width": half})  # fmt: skip
+    return pd.DataFrame(records)
+
+
+def write_efficiency_report(cells: pd.DataFrame, directory) -> list:
+    """``efficiency.md``/``.csv``: :func:`efficiency_table` of the cells, one row per entry and
+    order, best first within each order."""
+    from diffbench.bench import tables
+
+    table = efficiency_table(cells)
+    if table.empty:
+        return []
+    table = tables.label_entries(table).sort_values(
+        ["task", "order", "efficiency"], ascending=[True, True, False], kind="stable"
+    )
+    shown = pd.DataFrame({
+        "n": ["ẋ" if order == 1 else "ẍ" for order in table["order"]],
+        "method": table["method"], "setting": table["setting"],
+        "parameters": table["parameters"],
+        "efficiency": [tables.plus_minus(e, h) for e, h in
+                       zip(table["efficiency"], table["efficiency_half_width"], strict=True)],
+        "RMSE": [f"{np.sqrt(m):.4g}" for m in table["mse"]],
+        "least RMSE": [f"{np.sqrt(b):.4g}" for b in table["bound"]],
+        "seeds": table["seeds"].astype(str),
+    })  # fmt: skip
+    task = table["task"].iloc[0]
+    return tables.write_report(
+        directory, "efficiency", table, shown,
+        f"`{task}`: efficiency = least possible MSE / the method's MSE (1 = optimal)",
+        "Least possible MSE: the Wiener (RTS) smoother's with the true model, far from the "
+        "ends (diffbench.signals.stochastic.smoother_bound); the method's: the mean over the "
+        "seeds of its squared interior RMSE, each seed a new realisation of the signal and "
+        "the noise; ± the 95 % interval over the seeds (delta method). An efficiency above 1 "
+        "beyond its interval would be a bug.",
+    )  # fmt: skip

@@ -166,6 +166,21 @@ class SignalTask(ScenarioTask):
         return reports.signal_report(self.name, self.description, cells, tunings, directory)
 
 
+@dataclass(frozen=True, eq=False)
+class LimitTask(SignalTask):
+    """A signal task on a random signal with a known spectrum (the ``limit-*`` scenarios):
+    also the efficiency of every entry against the least error any method can reach
+    (:mod:`diffbench.bench.limit`)."""
+
+    listed: bool = False
+
+    def report(self, cells, tunings, directory):
+        from diffbench.bench import limit
+
+        written = super().report(cells, tunings, directory)
+        return written + limit.write_efficiency_report(cells, directory)
+
+
 # Table I of the paper: one parameter raised or lowered from the test-signal preset at a time.
 INFLUENCE_VARIANTS = (
     ("", {}),
@@ -448,8 +463,11 @@ def _register_builtins() -> None:
     from diffbench.signals.scenarios import grid_scenario_names
 
     grid = set(grid_scenario_names())
+    limits = set(signals.scenarios.limit_scenario_names())
     for name in signals.available_scenarios():
-        register_task(SignalTask(signals.get_scenario(name), listed=name not in grid))
+        scenario = signals.get_scenario(name)
+        task = LimitTask(scenario) if name in limits else SignalTask(scenario, name not in grid)
+        register_task(task)
     register_task(JacobiInfluenceTask(signals.get_scenario("paper-signal")))
     register_task(OnlineTask(signals.get_scenario("paper-signal")))
     register_task(LoopTask())

@@ -20,6 +20,7 @@ import numpy as np
 from diffbench.signals._checks import check_real, check_seed, check_times, read_only
 from diffbench.signals.clean import Chirp, DampedOscillation, PaperSines, Polynomial, Signal, Truth
 from diffbench.signals.noise import Gaussian, NoiseStack, Poisson, Quantisation, Sinusoid
+from diffbench.signals.stochastic import IntegratedWhiteNoise, Matern
 from diffbench.signals.timing import Dropout, Jitter, SamplingModel
 
 _STEPS_RTOL = 1e-9
@@ -477,5 +478,53 @@ for _sampling, _model in GRID_SAMPLINGS.items():
                 ),
                 preset="default",
                 sampling=(_model,),
+            )
+        )
+
+
+# --- random signals with a known spectrum, where the least possible error is known ----------
+LIMIT_NOISE_LEVELS = (0.001, 0.01, 0.1)
+"""Standard deviations of the white Gaussian noise of the limit scenarios."""
+LIMIT_SIGNALS = {
+    "matern52": Matern(smoothness=2.5, length_scale_s=0.1, std=1.0),
+    "matern72": Matern(smoothness=3.5, length_scale_s=0.1, std=1.0),
+    "iwn2": IntegratedWhiteNoise(times=2, intensity=1e2),
+    "iwn3": IntegratedWhiteNoise(times=3, intensity=1e6),
+}
+"""The random signals of the limit scenarios (:mod:`diffbench.signals.stochastic`): at 1 ms
+and these noise levels the optimal smoother's half-gain bandwidth lies between about 5 and 90 Hz.
+"""
+LIMIT_DT_S, LIMIT_DURATION_S, LIMIT_MARGIN_S = 1e-3, 3.0, 1.0
+
+
+def limit_scenario_name(family: str, noise_std: float) -> str:
+    """The name of a limit scenario, e.g. ``limit-matern52-0.01``."""
+    return f"limit-{family}-{noise_std:g}"
+
+
+def limit_scenario_names() -> list[str]:
+    """Every limit scenario (signal family x noise level)."""
+    return [limit_scenario_name(family, level) for family in LIMIT_SIGNALS
+            for level in LIMIT_NOISE_LEVELS]  # fmt: skip
+
+
+for _family, _signal in LIMIT_SIGNALS.items():
+    for _level in LIMIT_NOISE_LEVELS:
+        register_scenario(
+            Scenario(
+                name=limit_scenario_name(_family, _level),
+                signal=_signal,
+                noise=NoiseStack((Gaussian(std=_level),)),
+                dt_s=LIMIT_DT_S,
+                duration_s=LIMIT_DURATION_S,
+                interior_margin_s=LIMIT_MARGIN_S,
+                description=(
+                    f"A new realisation of {_signal.describe()} for each seed, sampled every "
+                    f"{LIMIT_DT_S * 1e3:g} ms for {LIMIT_DURATION_S:g} s, plus white Gaussian "
+                    f"noise of standard deviation {_level:g}; scored on the middle "
+                    f"{LIMIT_DURATION_S - 2 * LIMIT_MARGIN_S:g} s, where the least error any "
+                    "method can reach is the infinite record's (diffbench.signals.stochastic)."
+                ),
+                preset="default",
             )
         )
