@@ -261,6 +261,24 @@ def build_parser() -> argparse.ArgumentParser:
     )
     grid.set_defaults(handler=_cmd_grid)
 
+    limit = commands.add_parser(
+        "limit",
+        parents=[out, work, plug, pick],
+        help="tune every method on the random signals with a known least error, score its "
+        "efficiency (results in OUT/limit/)",
+    )
+    limit.add_argument("--seeds", type=_positive_int, default=10, help="scored seeds 0..N-1")
+    limit.add_argument(
+        "--orders", type=_orders, default=[1, 2], help="derivatives tuned for (default 1,2)"
+    )
+    limit.add_argument(
+        "--scenarios",
+        type=_name_list,
+        default=None,
+        help="limit scenarios, comma-separated (default: all; diffbench list names them)",
+    )
+    limit.set_defaults(handler=_cmd_limit)
+
     figures = commands.add_parser(
         "paper-figures",
         parents=[out, work, plug],
@@ -688,6 +706,27 @@ def _cmd_grid(args) -> None:
     directory = args.out / "grid"
     for path in uptodate.report_once(
         directory, key, lambda: grid.write_winners(store.cells_frame(grid.task_names()), directory)
+    ):
+        print(path)
+
+
+def _cmd_limit(args) -> None:
+    from diffbench.bench import grid, limit
+
+    tasks = args.scenarios or limit.task_names()
+    unknown = sorted(set(tasks) - set(limit.task_names()))
+    if unknown:
+        raise UsageError(f"--scenarios: not limit scenarios: {', '.join(unknown)}; "
+                         f"choose among {', '.join(limit.task_names())}")  # fmt: skip
+    names = _method_names(args.methods) or methods.available()
+    store = _open_store(args.out)
+    found, _ = _tune(limit.tuning_jobs(names, args.orders, tasks), store, args)
+    _say(_run_cells(grid.cells(found, range(args.seeds)), store, args))
+    store.refresh()
+    key = uptodate.inputs_key({"report": "limit", "tasks": tasks}, [store.cells.path])
+    directory = args.out / "limit"
+    for path in uptodate.report_once(
+        directory, key, lambda: limit.write_study(store.cells_frame(tasks), directory)
     ):
         print(path)
 

@@ -79,39 +79,89 @@ def scenario_bound(scenario, order: int, causal: bool = False) -> float:
 EFFICIENCY_CONFIDENCE = 0.95
 
 
-def efficiency_table(cells: pd.DataFrame, causal_methods=frozenset()) -> pd.DataFrame:
-    r"""Per task, entry (method, setting, role) and derivative order: the mean squared error
-    on the interior over the seeds, :math:`\overline{\mathrm{MSE}} = \frac1S\sum_s
-    \mathrm{RMSE}_s^2`, and the **efficiency** :math:`\eta = \mathrm{MMSE}/\overline{\mathrm{MSE}}`
-    (1: optimal), with a 95 % interval from the seeds' spread (the delta method:
-    :math:`\eta \pm t\,\eta\,\mathrm{SE}/\overline{\mathrm{MSE}}`). The bound is the smoother's,
-    or the filter's for the methods named in ``causal_methods``. Only tasks on scenarios with a
-    bound (:func:`scenario_bound`)."""
+def optimal_scores(scenario, seed: int, causal: bool = False) -> list[dict]:
+    """Score rows (metric ``optimal_rmse``, region ``interior``) of the optimal estimator
+    (:func:`optimal_states`; ``causal``: the filter) on ``scenario``'s realisation ``seed``,
+    for each derivative order 1..2 the signal has."""
+    scenario_bound(scenario, 1)  # refuses a scenario without a bound
+    realisation = scenario.realise(seed)
+    noise_std = scenario.noise.models[0].std
+    estimates = optimal_states(scenario.signal, scenario.dt_s, noise_std, realisation.x, causal)
+    inside = realisation.interior
+    return [
+        {"order": order, "region": "interior", "metric": "optimal_rmse",
+         "value": float(np.sqrt(np.mean((estimates[inside, order]
+                                         - realisation.truth[order][inside]) ** 2)))}
+        for order in (1, 2) if order < estimates.shape[1]
+    ]  # fmt: skip
+
+
+def efficiency_table(cells: pd.DataFrame) -> pd.DataFrame:
+    r"""Per task, entry (method, setting, role) and derivative order: the method's mean squared
+    error on the interior over the seeds, :math:`\bar m = \frac1S\sum_s m_s`
+    (:math:`m_s = \mathrm{RMSE}_s^2`), and its **efficiency** (1: optimal)
+
+    .. math:: \eta = \frac{\bar a}{\bar m}, \qquad a_s = \text{the optimal estimator's MSE
+        on the same realisation}
+
+    (``optimal_rmse`` rows: the RTS smoother with the true model, or the Kalman filter for a
+    causal method, whose bound is the causal one). Its expectation is the bound over the
+    method's MSE; pairing each seed's realisation with itself cancels how hard that
+    realisation happened to be, so the interval is narrow where the method is near optimal
+    (exactly 0 for a method that *is* the optimal estimator). The 95 % interval is the delta
+    method's for a ratio of means, :math:`\eta \pm t\,\eta\,\sqrt{(s_a^2/\bar a^2 + s_m^2/\bar m^2
+    - 2 s_{am}/(\bar a \bar m))/S}`. Also ``bound`` (:func:`scenario_bound`) and
+    ``efficiency_unpaired`` = bound / :math:`\bar m`. Only tasks on scenarios with a bound."""
     from scipy import stats
 
     from diffbench import signals
 
-    rows = cells[(cells["region"] == "interior") & (cells["metric"] == "rmse")
+    rows = cells[(cells["region"] == "interior") & cells["metric"].isin(["rmse", "optimal_rmse"])
                  & (cells["order"] >= 1)]  # fmt: skip
     records = []
     keys = ["task", "method", "params", "role", "order"]
     for (task, method, params, role, order), group in rows.groupby(keys, sort=True):
-        squares = group["value"].to_numpy(dtype=float) ** 2
-        if not np.isfinite(squares).all() or squares.size < 2:
+        wide = group.pivot_table(index="seed", columns="metric", values="value")
+        if "optimal_rmse" not in wide or "rmse" not in wide:
             continue
-        scenario = signals.get_scenario(task)
-        causal = method in causal_methods
-        bound = scenario_bound(scenario, int(order), causal)
-        mse = float(squares.mean())
-        standard_error = float(squares.std(ddof=1) / np.sqrt(squares.size))
-        efficiency = bound / mse
-        half = float(stats.t.ppf(0.5 + EFFICIENCY_CONFIDENCE / 2, squares.size - 1)
-                     * efficiency * standard_error / mse)  # fmt: skip
+        squares = wide[["optimal_rmse", "rmse"]].to_numpy(dtype=float) ** 2
+        if not np.isfinite(squares).all() or len(squares) < 2:
+            continue
+        count = len(squares)
+        optimal, mse = squares.mean(axis=0)
+        covariance = np.cov(squares, rowvar=False)
+        efficiency = optimal / mse
+        relative = (covariance[0, 0] / optimal**2 + covariance[1, 1] / mse**2
+                    - 2 * covariance[0, 1] / (optimal * mse)) / count  # fmt: skip
+        half = float(stats.t.ppf(0.5 + EFFICIENCY_CONFIDENCE / 2, count - 1)
+                     * efficiency * np.sqrt(max(relative, 0.0)))  # fmt: skip
+        causal = _is_causal(method)
+        bound = scenario_bound(signals.get_scenario(task), int(order), causal)
         records.append({"task": task, "method": method, "params": params, "role": role,
-                        "order": int(order), "seeds": int(squares.size), "mse": mse,
-                        "mse_se": standard_error, "bound": bound, "causal_bound": causal,
-                        "efficiency": efficiency, "efficiency_half_width": half})  # fmt: skip
+                        "order": int(order), "seeds": count, "mse": mse,
+                        "optimal_mse": optimal, "bound": bound, "causal_bound": causal,
+                        "efficiency": efficiency, "efficiency_half_width": half,
+                        "efficiency_unpaired": bound / mse})  # fmt: skip
     return pd.DataFrame(records)
+
+
+def _is_causal(name: str) -> bool:
+    from diffbench import methods
+
+    return name in methods.available(causal=None) and methods.method_class(name).causal
+
+
+EFFICIENCY_LEGEND = (
+    "Efficiency = the optimal estimator's MSE / the method's, summed over the same "
+    "realisations (1 = optimal; its expectation is the least possible MSE over the method's); "
+    "the optimal estimator is the RTS smoother with the true model, the Kalman filter for "
+    "causal methods (bound: causal). ± the 95 % interval over the seeds (delta method, paired). "
+    "RMSE: the method's over these seeds (below the least RMSE where the realisations "
+    "happened to be easy: the efficiency pairs them). Least RMSE: the square root of the "
+    "least possible MSE far from the ends "
+    "(diffbench.signals.stochastic.smoother_bound). An efficiency above 1 beyond its interval "
+    "is a bug, or a 1-in-40 chance."
+)
 
 
 def write_efficiency_report(cells: pd.DataFrame, directory) -> list:
@@ -139,9 +189,137 @@ def write_efficiency_report(cells: pd.DataFrame, directory) -> list:
     return tables.write_report(
         directory, "efficiency", table, shown,
         f"`{task}`: efficiency = least possible MSE / the method's MSE (1 = optimal)",
-        "Least possible MSE: the Wiener (RTS) smoother's with the true model, far from the "
-        "ends (diffbench.signals.stochastic.smoother_bound); the method's: the mean over the "
-        "seeds of its squared interior RMSE, each seed a new realisation of the signal and "
-        "the noise; ± the 95 % interval over the seeds (delta method). An efficiency above 1 "
-        "beyond its interval would be a bug.",
+        EFFICIENCY_LEGEND,
     )  # fmt: skip
+
+
+# --- the study: every method oracle-tuned on every limit scenario ----------------------------
+TUNING_SEED = 10_000
+BUDGET = 150  # evaluations per tuning, as the grid's
+
+
+def task_names() -> list[str]:
+    """The limit scenarios (:func:`diffbench.signals.scenarios.limit_scenario_names`)."""
+    from diffbench.signals.scenarios import limit_scenario_names
+
+    return limit_scenario_names()
+
+
+def tuning_jobs(names, orders=(1, 2), tasks=None) -> list:
+    """Each method of ``names`` oracle-tuned for each order the task's signal has (``tasks``:
+    default every limit scenario) on seed :data:`TUNING_SEED`."""
+    from diffbench import signals
+    from diffbench.bench.runner import TuningJob
+
+    return [
+        TuningJob(task, name, "oracle", int(order), TUNING_SEED, None, BUDGET)
+        for task in (tasks or task_names())
+        for name in names
+        for order in orders
+        if order < signals.get_scenario(task).signal.model().states
+    ]
+
+
+def study_table(cells: pd.DataFrame) -> pd.DataFrame:
+    """:func:`efficiency_table` of the entries tuned for the order they are scored on, with
+    the causal methods against the causal bound, and each task's ``family`` and
+    ``noise_std``."""
+    from diffbench import signals
+
+    tuned = cells[cells["origin"] == "tuned"]
+    tuned = tuned[tuned["tuned_order"].astype(float) == tuned["order"].astype(float)]
+    table = efficiency_table(tuned)
+    if table.empty:
+        return table
+    table.insert(1, "family", [task.split("-")[1] for task in table["task"]])
+    table.insert(2, "noise_std", [signals.get_scenario(t).noise.models[0].std
+                                  for t in table["task"]])  # fmt: skip
+    return table
+
+
+def write_study(cells: pd.DataFrame, directory) -> list:
+    """``results/limit/``: ``efficiency.md``/``.csv`` (every tuned method on every limit
+    scenario and order, with the least RMSE), ``best.md`` (the best efficiency per scenario
+    and order and who reaches it) and ``efficiency.png`` (efficiency against noise level, one
+    line per method, a panel per signal family and order)."""
+    from pathlib import Path
+
+    from diffbench.bench import figures, tables
+
+    directory = Path(directory)
+    table = study_table(cells)
+    if table.empty:
+        raise ValueError("no tuned cells of the limit scenarios in the store: run "
+                         "`diffbench limit` first")  # fmt: skip
+    table = table.sort_values(["family", "order", "noise_std", "efficiency"],
+                              ascending=[True, True, True, False], kind="stable")  # fmt: skip
+    symbol = {1: "ẋ", 2: "ẍ"}
+    shown = pd.DataFrame({
+        "signal": table["family"], "noise": [f"{v:g}" for v in table["noise_std"]],
+        "n": [symbol[o] for o in table["order"]], "method": table["method"],
+        "bound": ["causal" if c else "smoother" for c in table["causal_bound"]],
+        "efficiency": [tables.plus_minus(e, h) for e, h in
+                       zip(table["efficiency"], table["efficiency_half_width"], strict=True)],
+        "RMSE": [f"{np.sqrt(m):.4g}" for m in table["mse"]],
+        "least RMSE": [f"{np.sqrt(b):.4g}" for b in table["bound"]],
+        "parameters": [tables.readable_params(m, p) for m, p in
+                       zip(table["method"], table["params"], strict=True)],
+    })  # fmt: skip
+    legend = (
+        "Each method oracle-tuned for the derivative it is scored on (seed "
+        f"{TUNING_SEED}, {BUDGET} evaluations), scored on new realisations (seeds 0..S-1) "
+        "of the signal and the noise, on the middle second of each 3 s record. "
+        f"{EFFICIENCY_LEGEND}"
+    )
+    written = tables.write_report(
+        directory, "efficiency", table, shown, "Efficiency against the least possible error", legend
+    )
+    best = table.loc[table.groupby(["task", "order"])["efficiency"].idxmax()]
+    best = best.sort_values(["family", "order", "noise_std"], kind="stable")
+    best_shown = pd.DataFrame({
+        "signal": best["family"], "noise": [f"{v:g}" for v in best["noise_std"]],
+        "n": [symbol[o] for o in best["order"]], "best method": best["method"],
+        "efficiency": [tables.plus_minus(e, h) for e, h in
+                       zip(best["efficiency"], best["efficiency_half_width"], strict=True)],
+    })  # fmt: skip
+    written += tables.write_report(
+        directory,
+        "best",
+        best,
+        best_shown,
+        "The best efficiency per scenario and who reaches it",
+        legend,
+    )
+    written.append(_efficiency_figure(table, directory / "efficiency.png", figures))
+    return written
+
+
+def _efficiency_figure(table: pd.DataFrame, path, figures):
+    panels = sorted({(f, o) for f, o in zip(table["family"], table["order"], strict=True)})
+    styles = figures.method_styles(sorted(table["method"].unique()))
+    plt = figures.pyplot()
+    columns = 2
+    rows = (len(panels) + columns - 1) // columns
+    fig, axes = plt.subplots(rows, columns, figsize=(12, 3.6 * rows), squeeze=False)
+    for axis, (family, order) in zip(axes.flat, panels, strict=False):
+        part = table[(table["family"] == family) & (table["order"] == order)]
+        for method, lines in part.groupby("method"):
+            lines = lines.sort_values("noise_std")
+            style = styles[method]
+            axis.errorbar(lines["noise_std"], lines["efficiency"],
+                          yerr=lines["efficiency_half_width"], label=method,
+                          color=style.color, linestyle=style.linestyle, marker=style.marker,
+                          capsize=2)  # fmt: skip
+        axis.axhline(1.0, color="black", linewidth=0.8)
+        axis.set_xscale("log")
+        axis.set_yscale("log")
+        axis.set_title(f"{family}, {'ẋ' if order == 1 else 'ẍ'}")
+        axis.set_xlabel("noise standard deviation")
+        axis.set_ylabel("efficiency (1 = optimal)")
+    for axis in list(axes.flat)[len(panels) :]:
+        axis.set_visible(False)
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=6, fontsize="small")
+    fig.suptitle("Efficiency = least possible MSE / method's MSE, oracle-tuned methods")
+    fig.tight_layout(rect=(0, 0.06, 1, 0.97))
+    return figures.save_figure(fig, path, tight=False)

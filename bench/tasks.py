@@ -174,6 +174,16 @@ class LimitTask(SignalTask):
 
     listed: bool = False
 
+    def score(self, method, seed):
+        """Also the interior RMSE of the optimal estimator on the same realisation (metric
+        ``optimal_rmse``; the filter's for a causal method): the efficiency is then a paired
+        ratio, free of the realisation's own luck
+        (:func:`diffbench.bench.limit.efficiency_table`)."""
+        from diffbench.bench import limit
+
+        rows = super().score(method, seed)
+        return rows + limit.optimal_scores(self.scenario, seed, causal=method.causal)
+
     def report(self, cells, tunings, directory):
         from diffbench.bench import limit
 

@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 
 from diffbench import methods, signals
-from diffbench.bench import limit
+from diffbench.bench import limit, tasks
 from diffbench.bench.cli import main
 
 
@@ -35,7 +35,7 @@ def test_kalman_at_the_true_model_is_the_optimal_smoother_inside_the_record(name
 
 
 def test_no_method_beats_the_bound_beyond_monte_carlo_error(tmp_path, capsys):
-    # presets and a kalman at the true model (efficiency 1) on 10 realisations of a Matérn 5/2
+    # presets of five methods on 10 realisations of a Matérn 5/2
     name = "limit-matern52-0.01"
     args = ["run", name, "--seeds", "10", "--out", str(tmp_path), "--no-progress", "--methods",
             "jacobi,kalman,savitzky_golay,spectral,butterworth"]  # fmt: skip
@@ -43,21 +43,63 @@ def test_no_method_beats_the_bound_beyond_monte_carlo_error(tmp_path, capsys):
     table = pd.read_csv(tmp_path / name / "efficiency.csv")
     assert set(table["method"]) == {"jacobi", "kalman", "savitzky_golay", "spectral",
                                     "butterworth"}  # fmt: skip
+    assert len(table) == 5 * 2  # ẋ and ẍ
     assert (table["efficiency"] - table["efficiency_half_width"] <= 1).all()
     assert (table["efficiency"] > 0).all()
-    # the table's numbers from the stored RMSEs: the mean of the squares over the seeds
+    # the table's numbers from the stored RMSEs: the optimal estimator's and the method's
+    # mean squares over the same seeds
     scenario = signals.get_scenario(name)
     jacobi = table[(table["method"] == "jacobi") & (table["order"] == 1)].iloc[0]
     preset = methods.get("jacobi", **json.loads(jacobi["params"]))
-    squares = []
+    ours, best = [], []
     for seed in range(10):
         realisation = scenario.realise(seed)
+        inside = realisation.interior
         error = preset(realisation.x, realisation.dt_s)[1] - realisation.truth[1]
-        squares.append(np.mean(error[realisation.interior] ** 2))
-    assert jacobi["mse"] == pytest.approx(np.mean(squares), rel=1e-9)
-    assert jacobi["efficiency"] == pytest.approx(limit.scenario_bound(scenario, 1)
-                                                 / np.mean(squares), rel=1e-9)  # fmt: skip
+        optimal = limit.optimal_states(scenario.signal, scenario.dt_s, 0.01, realisation.x)
+        ours.append(np.mean(error[inside] ** 2))
+        best.append(np.mean((optimal[inside, 1] - realisation.truth[1][inside]) ** 2))
+    assert jacobi["mse"] == pytest.approx(np.mean(ours), rel=1e-9)
+    assert jacobi["efficiency"] == pytest.approx(np.mean(best) / np.mean(ours), rel=1e-9)
+    assert jacobi["efficiency_unpaired"] == pytest.approx(
+        limit.scenario_bound(scenario, 1) / np.mean(ours), rel=1e-9
+    )
     assert "efficiency" in (tmp_path / name / "efficiency.md").read_text()
+
+
+def test_the_optimal_estimator_as_a_method_scores_efficiency_one_exactly():
+    # kalman_filter at the true model is the Kalman filter: paired efficiency 1, interval 0
+    scenario = signals.get_scenario("limit-iwn3-0.1")
+    bandwidth_hz = (1e6 / (0.1**2 * 1e-3)) ** (1 / 6) / (2 * math.pi)
+    method = methods.get("kalman_filter", model_order=2, bandwidth_hz=bandwidth_hz)
+    rows = []
+    for seed in range(4):
+        for row in tasks.get_task(scenario.name).score(method, seed):
+            rows.append({"task": scenario.name, "method": "kalman_filter", "params": "{}",
+                         "role": "{}", "seed": seed, **row})  # fmt: skip
+    table = limit.efficiency_table(pd.DataFrame(rows))
+    assert list(table["order"]) == [1, 2] and table["causal_bound"].all()
+    np.testing.assert_allclose(table["efficiency"], 1.0, rtol=1e-6)
+    np.testing.assert_allclose(table["efficiency_half_width"], 0.0, atol=1e-5)
+
+
+def test_the_limit_command_tunes_scores_and_writes_the_study(tmp_path, capsys):
+    args = ["limit", "--scenarios", "limit-iwn3-0.01", "--methods", "savitzky_golay,kalman",
+            "--seeds", "4", "--orders", "1", "--out", str(tmp_path), "--no-progress"]  # fmt: skip
+    assert main(args) == 0
+    output = capsys.readouterr().out
+    assert "2 tunings computed" in output and "8 cells computed" in output
+    table = pd.read_csv(tmp_path / "limit" / "efficiency.csv")
+    assert sorted(table["method"]) == ["kalman", "savitzky_golay"]
+    assert (table["order"] == 1).all() and (table["efficiency"] <= 1 + table[
+        "efficiency_half_width"]).all()  # fmt: skip
+    best = (tmp_path / "limit" / "best.md").read_text()
+    assert "| iwn3" in best and "kalman" in best
+    assert (tmp_path / "limit" / "efficiency.png").stat().st_size > 10_000
+    assert main(args) == 0  # a rerun: nothing tuned or computed again
+    assert "0 tunings computed" in capsys.readouterr().out
+    assert main([*args[:2], "limit-nope", *args[3:]]) == 2
+    assert "not limit scenarios: limit-nope" in capsys.readouterr().err
 
 
 def test_a_scenario_without_a_known_bound_is_refused():
