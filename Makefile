@@ -21,7 +21,8 @@ $(STAMP): pyproject.toml
 # `make studies`, the long studies, into results/studies/ (their own store): every peer and
 # every tuning criterion on the paper signals (10-seed and whole-record tunings too), the
 # real robot, the online track, the scenario grid and the data-only recommendation checked on
-# every scenario. `make timing`: throughput, peak memory and the speed ratios against the peers
+# every scenario; the limit study (every method's efficiency against the least possible error
+# on random signals with known spectra). `make timing`: throughput, peak memory and the speed ratios against the peers
 # (results/timing/). Every step resumes from its store: a rerun recomputes and re-tunes
 # nothing and only rewrites the reports.
 # The grid and identify-dfki (5000-sample records) hold the native methods and the fast peers
@@ -70,6 +71,8 @@ studies: $(STAMP)
 	$(BIN)/diffbench grid --methods native,$(GRID_PEERS),causal --seeds 10 --jobs 2 \
 	  --out $(STUDIES)
 	$(BIN)/diffbench recommend-check --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench limit --methods native,$(GRID_PEERS),causal --seeds 20 --jobs 2 \
+	  --out $(STUDIES)
 	$(BIN)/diffbench export pendulum-500hz-jitter $(STUDIES)/recommend-example/pendulum.csv
 	$(BIN)/diffbench recommend $(STUDIES)/recommend-example/pendulum.csv --time t --column x \
 	  --dt 0.002 --methods native,$(GRID_PEERS) --out $(STUDIES)/recommend-example
