@@ -209,7 +209,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=_criteria,
         default=["oracle"],
         help="oracle (against the truth), no-truth (spectral risk, linear methods),"
-        " pynumdiff (PyNumDiff's loss); comma-separated (default oracle)",
+        " pynumdiff (PyNumDiff's loss), surrogate (the truth of surrogate records drawn from"
+        " the record's spectrum); comma-separated (default oracle)",
     )
     tune.add_argument(
         "--orders", type=_orders, default=[2], help="derivatives tuned for: 1, 2 or 1,2 (default 2)"
@@ -218,7 +219,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--cutoff-hz",
         type=_finite_positive,
         default=20.0,
-        help="bandlimit guess of the data-only criteria, inside (0, Nyquist) (default 20)",
+        help="bandlimit guess of the no-truth and pynumdiff criteria, inside (0, Nyquist) "
+        "(default 20)",
     )
     tune.add_argument(
         "--tuning-seed",
@@ -639,7 +641,7 @@ def _cmd_tune(args) -> None:
             "--region whole cannot go with the no-truth criterion (a spectral estimate that "
             "knows no ends): use --criteria oracle or pynumdiff"
         )
-    data_only = [c for c in args.criteria if c != "oracle"]
+    data_only = [c for c in args.criteria if c in ("no-truth", "pynumdiff")]  # need f_c
     if data_only:
         _check_cutoff(args.cutoff_hz, task)
     jobs_list = []
@@ -648,7 +650,7 @@ def _cmd_tune(args) -> None:
             if criterion == "no-truth" and not methods.method_class(name).linear:
                 print(f"{name}: not linear, skipped for the no-truth criterion", file=sys.stderr)
                 continue
-            cutoff = args.cutoff_hz if criterion != "oracle" else None
+            cutoff = args.cutoff_hz if criterion in data_only else None
             jobs_list += [
                 runner.TuningJob(
                     task.name,

@@ -15,12 +15,15 @@ ORDER_SYMBOLS = {0: "x", 1: "ẋ", 2: "ẍ"}
 TUNED_REGIONS = ("interior", "whole")
 # fields stored only when they differ from these defaults (older records lack them)
 OPTIONAL_DEFAULTS = {"tuning_seeds": 1, "tuned_region": "interior"}
-CRITERION_NAMES = {"oracle": "oracle", "no-truth": "no-truth", "pynumdiff": "PyNumDiff-loss"}
+CRITERION_NAMES = {"oracle": "oracle", "no-truth": "no-truth", "pynumdiff": "PyNumDiff-loss",
+                   "surrogate": "surrogate"}  # fmt: skip
 CRITERION_LEGEND = {
     "oracle": "minimises the interior (or whole-record) RMSE against the truth on the tuning seed",
     "no-truth": "minimises a data-only spectral estimate of that RMSE, from a bandlimit guess "
     "f_c (linear methods only)",
     "pynumdiff": "minimises PyNumDiff's data-only loss (re-integration RMSE + γ·TV, γ from f_c)",
+    "surrogate": "data only: minimises the RMSE on surrogate records drawn from the tuning "
+    "record's own spectrum, whose truth is known (the procedure of diffbench recommend)",
 }
 
 

@@ -27,6 +27,7 @@ registered later needs nothing extra.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import time
@@ -40,7 +41,11 @@ from diffbench import methods
 from diffbench.bench.scores import estimate_on, is_uniform
 from diffbench.bench.spectrum import periodogram
 
-CRITERIA = ("oracle", "no-truth", "pynumdiff")
+CRITERIA = ("oracle", "no-truth", "pynumdiff", "surrogate")
+
+SURROGATE_RECORDS = 2
+"""Surrogate records drawn from each record tuned on by the surrogate criterion (their mean
+loss: one draw can favour a setting by luck)."""
 
 
 class NoRoomToTune(ValueError):
@@ -276,7 +281,7 @@ def tune(
                          "'oracle' or 'pynumdiff', or on region 'interior'")  # fmt: skip
     if order not in (1, 2):
         raise ValueError(f"`order` must be 1 or 2, got {order!r}")
-    if criterion != "oracle":
+    if criterion in ("no-truth", "pynumdiff"):
         if cutoff_hz is None:
             raise ValueError(f"the {criterion} criterion needs `cutoff_hz` (a bandlimit guess)")
         nyquist = 0.5 / realisations[0].dt_s
@@ -289,6 +294,10 @@ def tune(
     if criterion == "no-truth" and not methods.method_class(name).linear:
         raise ValueError(f"the no-truth criterion needs a linear method; use 'pynumdiff' for "
                          f"{name!r}")  # fmt: skip
+    if criterion == "surrogate":
+        result = tune(name, _surrogates(realisations, seed), order, "oracle",
+                      max_evaluations=max_evaluations, seed=seed, region=region)  # fmt: skip
+        return dataclasses.replace(result, criterion="surrogate")
     first = realisations[0]
     dt = first.dt_s
     cls = methods.method_class(name)
@@ -368,6 +377,24 @@ def tune(
         method=name, params=best, loss=value, criterion=criterion, order=order,
         evaluations=len(cache), seconds=time.perf_counter() - start, history=tuple(history),
     )  # fmt: skip
+
+
+def _surrogates(realisations, seed: int) -> list:
+    """:data:`SURROGATE_RECORDS` surrogate records of each realisation's samples (its truth
+    unused), from its own spectrum (:func:`diffbench.bench.surrogates.surrogate_records`,
+    the procedure of ``diffbench recommend``), scored where it is."""
+    from diffbench.bench.spectrum import record_spectrum
+    from diffbench.bench.surrogates import surrogate_records
+
+    drawn = []
+    for index, realisation in enumerate(realisations):
+        x = np.asarray(realisation.x, dtype=np.float64)
+        if x.ndim != 1:
+            raise ValueError("the surrogate criterion tunes on one channel (1-D `x`)")
+        drawn += surrogate_records(record_spectrum(x, realisation.dt_s), x, realisation.dt_s,
+                                   SURROGATE_RECORDS, seed=seed + index,
+                                   scored=np.asarray(realisation.interior, dtype=bool))  # fmt: skip
+    return drawn
 
 
 def _evolution_per_choice(dimensions, loss, params_of, max_evaluations, seed) -> dict[str, Any]:

@@ -88,9 +88,12 @@ def test_the_limit_command_tunes_scores_and_writes_the_study(tmp_path, capsys):
             "--seeds", "4", "--orders", "1", "--out", str(tmp_path), "--no-progress"]  # fmt: skip
     assert main(args) == 0
     output = capsys.readouterr().out
-    assert "2 tunings computed" in output and "8 cells computed" in output
+    # two methods, oracle- and surrogate-tuned, scored on 4 seeds
+    assert "4 tunings computed" in output and "16 cells computed" in output
     table = pd.read_csv(tmp_path / "limit" / "efficiency.csv")
-    assert sorted(table["method"]) == ["kalman", "savitzky_golay"]
+    assert sorted(zip(table["criterion"], table["method"], strict=True)) == [
+        ("oracle", "kalman"), ("oracle", "savitzky_golay"), ("surrogate", "kalman"),
+        ("surrogate", "savitzky_golay")]  # fmt: skip
     assert (table["order"] == 1).all() and (table["efficiency"] <= 1 + table[
         "efficiency_half_width"]).all()  # fmt: skip
     best = (tmp_path / "limit" / "best.md").read_text()
@@ -105,3 +108,20 @@ def test_the_limit_command_tunes_scores_and_writes_the_study(tmp_path, capsys):
 def test_a_scenario_without_a_known_bound_is_refused():
     with pytest.raises(ValueError, match="has no known bound"):
         limit.scenario_bound(signals.get_scenario("paper-signal"), 1)
+
+
+def test_the_surrogate_criterion_tunes_on_the_data_alone():
+    # the realisation's truth is never read: the same setting with the truth replaced
+    import dataclasses
+
+    from diffbench.bench import tuning
+
+    realisation = signals.get_scenario("limit-iwn3-0.01").realise(10_000)
+    first = tuning.tune("savitzky_golay", realisation, 1, "surrogate", max_evaluations=60)
+    blind = dataclasses.replace(realisation, truth=signals.get_scenario(
+        "limit-iwn3-0.01").realise(10_001).truth)  # fmt: skip
+    again = tuning.tune("savitzky_golay", blind, 1, "surrogate", max_evaluations=60)
+    assert first.criterion == "surrogate" and first.params == again.params
+    assert first.loss == again.loss
+    oracle = tuning.tune("savitzky_golay", realisation, 1, "oracle", max_evaluations=60)
+    assert oracle.params != first.params  # the truth does change the oracle's choice
