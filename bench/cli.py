@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import functools
 import math
 import os
 import signal
@@ -280,6 +281,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="limit scenarios, comma-separated (default: all; diffbench list names them)",
     )
     limit.set_defaults(handler=_cmd_limit)
+
+    pareto = commands.add_parser(
+        "pareto",
+        parents=[out, work, plug, pick],
+        help="each method's front of accuracy against smoothness without the truth, with its "
+        "knee and the oracle's setting (OUT/limit/pareto_TASK.*)",
+    )
+    pareto.add_argument("task", help="a signal task, e.g. limit-matern52-0.01")
+    pareto.set_defaults(handler=_cmd_pareto)
 
     figures = commands.add_parser(
         "paper-figures",
@@ -731,6 +741,31 @@ def _cmd_limit(args) -> None:
         directory, key, lambda: limit.write_study(store.cells_frame(tasks), directory)
     ):
         print(path)
+
+
+def _cmd_pareto(args) -> None:
+    from diffbench.bench import limit
+
+    task = _task(args.task)
+    with user_input():
+        realisation = task.tuning_data(limit.TUNING_SEED)
+    names = _method_names(args.methods) or methods.available()
+    directory = args.out / "limit"
+
+    def write() -> list[Path]:
+        work = functools.partial(_front, realisation=realisation)
+        fronts = list(executor.ordered_map(work, names, args.jobs))
+        return limit.write_pareto(fronts, task.name, directory)
+
+    key = uptodate.inputs_key({"report": "pareto", "task": task.name, "methods": names})
+    for path in uptodate.report_once(directory, key, write, part=f"pareto-{task.name}"):
+        print(path)
+
+
+def _front(name: str, realisation):
+    from diffbench.bench import limit
+
+    return limit.pareto_front(name, realisation)
 
 
 def _cmd_paper_figures(args) -> None:

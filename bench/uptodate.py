@@ -25,7 +25,8 @@ from pathlib import Path
 from diffbench.bench.provenance import provenance
 
 KEY_FILE = ".diffbench-report.json"
-"""The file, in a report's directory, holding the key and the files of its last writing."""
+"""The file, in a report's directory, holding the key and the files of its last writing
+(``.diffbench-report-PART.json`` for one of several reports sharing a directory)."""
 
 _PACKAGE_DIRECTORIES = ("methods", "signals", "bench")
 
@@ -70,12 +71,17 @@ def inputs_key(options: dict, files: Iterable[Path] = ()) -> str:
     return hashlib.sha256(json.dumps(content, sort_keys=True, default=str).encode()).hexdigest()
 
 
-def written_before(directory: Path, key: str) -> list[Path] | None:
-    """The files of ``directory``'s last report if it was written from ``key`` and they all
-    exist; otherwise None."""
+def _key_file(directory: Path, part: str) -> Path:
+    name = KEY_FILE if not part else KEY_FILE.replace(".json", f"-{part}.json")
+    return Path(directory) / name
+
+
+def written_before(directory: Path, key: str, part: str = "") -> list[Path] | None:
+    """The files of ``directory``'s last report (or of its ``part``, when several reports
+    share the directory) if it was written from ``key`` and they all exist; otherwise None."""
     directory = Path(directory)
     try:
-        last = json.loads((directory / KEY_FILE).read_text())
+        last = json.loads(_key_file(directory, part).read_text())
         files = [directory / path for path in last["files"]]
         same = last["key"] == key
     except (OSError, ValueError, KeyError, TypeError):
@@ -83,24 +89,28 @@ def written_before(directory: Path, key: str) -> list[Path] | None:
     return files if same and all(path.is_file() for path in files) else None
 
 
-def remember(directory: Path, key: str, written: list[Path]) -> None:
+def remember(directory: Path, key: str, written: list[Path], part: str = "") -> None:
     """Record that ``written`` (files in or under ``directory``) came from ``key`` (written to
     a temporary file first, then renamed: a killed run leaves the old record or the new)."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    temporary = directory / (KEY_FILE + ".tmp")
+    target = _key_file(directory, part)
+    temporary = target.with_name(target.name + ".tmp")
     files = [os.path.relpath(path, directory) for path in written]
     temporary.write_text(json.dumps({"key": key, "files": files}, indent=1))
-    os.replace(temporary, directory / KEY_FILE)
+    os.replace(temporary, target)
 
 
-def report_once(directory: Path, key: str, write: Callable[[], list[Path]]) -> list[Path]:
+def report_once(
+    directory: Path, key: str, write: Callable[[], list[Path]], part: str = ""
+) -> list[Path]:
     """The files ``write()`` writes into ``directory``, written only when the last report there
-    did not come from the same ``key`` (see the module docstring)."""
-    before = written_before(directory, key)
+    (its ``part``, for one of several reports sharing the directory) did not come from the
+    same ``key`` (see the module docstring)."""
+    before = written_before(directory, key, part)
     if before is not None:
         return before
-    (Path(directory) / KEY_FILE).unlink(missing_ok=True)
+    _key_file(directory, part).unlink(missing_ok=True)
     written = list(write())
-    remember(directory, key, written)
+    remember(directory, key, written, part)
     return written

@@ -125,3 +125,54 @@ def test_the_surrogate_criterion_tunes_on_the_data_alone():
     assert first.loss == again.loss
     oracle = tuning.tune("savitzky_golay", realisation, 1, "oracle", max_evaluations=60)
     assert oracle.params != first.params  # the truth does change the oracle's choice
+
+
+def test_the_front_is_every_point_no_other_beats_on_both():
+    rng = np.random.default_rng(0)
+    fit, roughness = rng.random(200), rng.random(200)
+    fit[5], roughness[5] = fit[6], roughness[6]  # a tie: the first of equals is kept
+    front = limit.non_dominated(fit, roughness)
+    for i in range(200):
+        beaten = np.any((fit <= fit[i]) & (roughness <= roughness[i])
+                        & ((fit < fit[i]) | (roughness < roughness[i])))  # fmt: skip
+        tied_before = np.any((fit[:i] == fit[i]) & (roughness[:i] == roughness[i]))
+        assert front[i] == (not beaten and not tied_before), i
+
+
+def test_the_knee_is_the_corner_of_an_l_shaped_front():
+    # two straight arms in log-log coordinates meeting at (1e-2, 1e2)
+    fit = np.concatenate([np.geomspace(1e-3, 1e-2, 10), np.geomspace(1e-2, 1.0, 21)[1:]])
+    roughness = np.concatenate([np.geomspace(1e5, 1e2, 10), np.geomspace(1e2, 10.0, 21)[1:]])
+    order = np.random.default_rng(1).permutation(fit.size)  # any order
+    assert fit[order][limit.knee(fit[order], roughness[order])] == pytest.approx(1e-2)
+    assert limit.knee(np.array([1.0, 2.0]), np.array([2.0, 1.0])) == 0  # too few: an end
+
+
+def test_reintegration_and_total_variation_on_exact_values():
+    dt = 1e-3
+    t = np.arange(1001) * dt
+    x = 3.0 + 2.0 * t - 5.0 * t**2
+    keep = np.zeros(t.size, dtype=bool)
+    keep[100:900] = True
+    exact = 2.0 - 10.0 * t  # linear: the trapezoidal integral is exact
+    assert limit.reintegration_rmse(x, exact, dt, keep) == pytest.approx(0.0, abs=1e-12)
+    # a derivative off by a constant c leaves a residual ramp c·t: RMSE c·T/√12 on T = 799 dt
+    assert limit.reintegration_rmse(x, exact + 0.5, dt, keep) == pytest.approx(
+        0.5 * 799 * dt * math.sqrt((1 + 2 / 799) / 12), rel=1e-9)  # fmt: skip
+    assert limit.total_variation(exact, keep) == pytest.approx(10.0 * 799 * dt, rel=1e-12)
+    assert limit.total_variation(np.sign(np.sin(40 * t)), keep) == pytest.approx(
+        2.0 * np.count_nonzero(np.diff(np.sign(np.sin(40 * t[100:900])))))  # fmt: skip
+
+
+def test_the_pareto_command_writes_fronts_with_knee_and_oracle(tmp_path, capsys):
+    args = ["pareto", "limit-iwn3-0.01", "--methods", "savitzky_golay,spectral", "--out",
+            str(tmp_path)]  # fmt: skip
+    assert main(args) == 0
+    table = pd.read_csv(tmp_path / "limit" / "pareto_limit-iwn3-0.01.csv")
+    assert sorted(table["method"]) == ["savitzky_golay", "spectral"]
+    assert (table["knee_over_oracle"] >= 1).all()  # the oracle's is the least RMSE tried
+    assert (table["front"] <= table["settings"]).all() and (table["front"] >= 3).all()
+    assert (tmp_path / "limit" / "pareto_limit-iwn3-0.01.png").stat().st_size > 10_000
+    capsys.readouterr()
+    assert main(args) == 0  # a rerun finds the report written from the same inputs
+    assert "pareto_limit-iwn3-0.01.md" in capsys.readouterr().out
