@@ -779,7 +779,9 @@ def _cmd_paper_figures(args) -> None:
         written = paper.write_figure1(directory, names=names)
         written += paper.write_figure2(directory, names) + paper.write_figure3(directory)
         written += paper.write_frequency_table(directory, names)
-        return written + paper.write_error_profile(directory, args.seeds, names, args.jobs)
+        return written + paper.write_error_profile(
+            directory, args.seeds, names, args.jobs, _progress(args, "run")
+        )
 
     key = uptodate.inputs_key({"report": "paper-figures", "methods": names, "seeds": args.seeds})
     for path in uptodate.report_once(directory, key, write):

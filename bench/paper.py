@@ -414,7 +414,7 @@ def _squared_errors(item: tuple[str, int]) -> dict[int, np.ndarray]:
     return {order: (estimate[order] - realisation.truth[order]) ** 2 for order in (1, 2)}
 
 
-def error_profile_data(seeds: int = 20, names=None, jobs=1) -> pd.DataFrame:
+def error_profile_data(seeds: int = 20, names=None, jobs=1, progress=None) -> pd.DataFrame:
     """RMS error over noise seeds at each sample of the paper scenario, for ẋ and ẍ of every
     method named (default: every registered one) at its paper-signal preset.
 
@@ -425,6 +425,7 @@ def error_profile_data(seeds: int = 20, names=None, jobs=1) -> pd.DataFrame:
 
     ``jobs``: where each (method, seed) runs (:func:`diffbench.bench.executor.ordered_map`);
     the sums are taken here in seed order, so the result is the same bits for any ``jobs``.
+    ``progress(iterable, total)`` wraps the results as they come (e.g. a tqdm bar).
     """
     first = signals.get_scenario(SCENARIO).realise(0)
     n = len(first.t)
@@ -432,6 +433,7 @@ def error_profile_data(seeds: int = 20, names=None, jobs=1) -> pd.DataFrame:
     names = list(names or methods.available())
     items = [(name, seed) for name in names for seed in range(seeds)]
     results = executor.ordered_map(_squared_errors, items, jobs)
+    results = iter(progress(results, len(items)) if progress else results)
     for name in names:
         squares = {1: np.zeros(n), 2: np.zeros(n)}
         for _ in range(seeds):
@@ -466,14 +468,16 @@ def ends_table(profile: pd.DataFrame, end_fraction: float = END_FRACTION) -> pd.
     return pd.DataFrame(records)
 
 
-def write_error_profile(directory: Path, seeds: int = 20, names=None, jobs=1) -> list[Path]:
+def write_error_profile(
+    directory: Path, seeds: int = 20, names=None, jobs=1, progress=None
+) -> list[Path]:
     """``error_vs_position.csv`` (:func:`error_profile_data`), ``error_vs_position.png`` drawn
     from it (RMS error of ẋ and ẍ against position, log scale, one line per method) and
     ``ends.md``/``.csv`` (:func:`ends_table`)."""
     from diffbench.bench import tables
 
     csv = directory / "error_vs_position.csv"
-    error_profile_data(seeds, names, jobs).to_csv(csv, index=False)
+    error_profile_data(seeds, names, jobs, progress).to_csv(csv, index=False)
     data = pd.read_csv(csv)
     names = _methods_in(data.columns, "_velocity_rms_error")
     styles = figures.method_styles(names)

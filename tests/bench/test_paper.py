@@ -124,8 +124,16 @@ def test_paper_figures_command_writes_everything(tmp_path, capsys):
 
 def test_error_profile_on_two_processes_is_the_same_bits():
     serial = paper.error_profile_data(3, names=["jacobi", "butterworth"])
-    parallel = paper.error_profile_data(3, names=["jacobi", "butterworth"], jobs=2)
+    totals = []
+
+    def progress(results, total):
+        totals.append(total)
+        return results
+
+    parallel = paper.error_profile_data(3, names=["jacobi", "butterworth"], jobs=2,
+                                        progress=progress)  # fmt: skip
     pd.testing.assert_frame_equal(serial, parallel, check_exact=True)
+    assert totals == [2 * 3]  # one step per method and seed
 
 
 def test_error_profile_is_the_rms_over_seeds_at_each_sample():
