@@ -251,7 +251,8 @@ def study_table(cells: pd.DataFrame) -> pd.DataFrame:
 def write_study(cells: pd.DataFrame, directory) -> list:
     """``results/limit/``: ``efficiency.md``/``.csv`` (every tuned method on every limit
     scenario and order, oracle- and data-only-tuned, with the least RMSE), ``best.md`` (the
-    best efficiency per scenario, order and criterion, and who reaches it) and
+    best efficiency per scenario, order and criterion, and who reaches it, offline and causal
+    methods apart) and
     ``efficiency.png`` (efficiency of the oracle-tuned methods against noise level, one line
     per method, a panel per signal family and order)."""
     from pathlib import Path
@@ -289,12 +290,16 @@ def write_study(cells: pd.DataFrame, directory) -> list:
     written = tables.write_report(
         directory, "efficiency", table, shown, "Efficiency against the least possible error", legend
     )
-    best = table.loc[table.groupby(["task", "order", "criterion"])["efficiency"].idxmax()]
-    best = best.sort_values(["family", "order", "noise_std", "criterion"], kind="stable")
+    # offline methods against the smoother's bound, causal ones against the filter's: apart
+    best = table.loc[table.groupby(["task", "order", "causal_bound", "criterion"])[
+        "efficiency"].idxmax()]  # fmt: skip
+    best = best.sort_values(["family", "order", "noise_std", "causal_bound", "criterion"],
+                            kind="stable")  # fmt: skip
     best_shown = pd.DataFrame({
         "signal": best["family"], "noise": [f"{v:g}" for v in best["noise_std"]],
-        "n": [symbol[o] for o in best["order"]], "tuned by": best["criterion"],
-        "best method": best["method"],
+        "n": [symbol[o] for o in best["order"]],
+        "bound": ["causal" if c else "smoother" for c in best["causal_bound"]],
+        "tuned by": best["criterion"], "best method": best["method"],
         "efficiency": [tables.plus_minus(e, h) for e, h in
                        zip(best["efficiency"], best["efficiency_half_width"], strict=True)],
     })  # fmt: skip
