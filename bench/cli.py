@@ -253,26 +253,24 @@ def build_parser() -> argparse.ArgumentParser:
     )
     tune.set_defaults(handler=_cmd_tune)
 
+    # the sweeps that tune every method per task, then score it: grid and limit
+    sweep = _Parser(add_help=False)
+    sweep.add_argument("--seeds", type=_positive_int, default=10, help="scored seeds 0..N-1")
+    sweep.add_argument(
+        "--orders", type=_orders, default=[1, 2], help="derivatives tuned for (default 1,2)"
+    )
     grid = commands.add_parser(
         "grid",
-        parents=[out, work, plug, pick],
+        parents=[out, work, plug, pick, sweep],
         help="tune every method on the noise x level x step grid, score it, name the winners",
-    )
-    grid.add_argument("--seeds", type=_positive_int, default=10, help="scored seeds 0..N-1")
-    grid.add_argument(
-        "--orders", type=_orders, default=[1, 2], help="derivatives tuned for (default 1,2)"
     )
     grid.set_defaults(handler=_cmd_grid)
 
     limit = commands.add_parser(
         "limit",
-        parents=[out, work, plug, pick],
+        parents=[out, work, plug, pick, sweep],
         help="tune every method on the random signals with a known least error, score its "
         "efficiency (results in OUT/limit/)",
-    )
-    limit.add_argument("--seeds", type=_positive_int, default=10, help="scored seeds 0..N-1")
-    limit.add_argument(
-        "--orders", type=_orders, default=[1, 2], help="derivatives tuned for (default 1,2)"
     )
     limit.add_argument(
         "--scenarios",
@@ -753,19 +751,13 @@ def _cmd_pareto(args) -> None:
     directory = args.out / "limit"
 
     def write() -> list[Path]:
-        work = functools.partial(_front, realisation=realisation)
+        work = functools.partial(limit.pareto_front, realisation=realisation)
         fronts = list(executor.ordered_map(work, names, args.jobs))
         return limit.write_pareto(fronts, task.name, directory)
 
     key = uptodate.inputs_key({"report": "pareto", "task": task.name, "methods": names})
     for path in uptodate.report_once(directory, key, write, part=f"pareto-{task.name}"):
         print(path)
-
-
-def _front(name: str, realisation):
-    from diffbench.bench import limit
-
-    return limit.pareto_front(name, realisation)
 
 
 def _cmd_paper_figures(args) -> None:

@@ -12,12 +12,14 @@ dynamic systems", AIAA J. 3 (1965); Anderson & Moore, *Optimal Filtering* (1979)
 
 from __future__ import annotations
 
+import functools
 import json
 from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
+from diffbench.bench.roles import ORDER_SYMBOLS
 from diffbench.signals.noise import Gaussian
 from diffbench.signals.stochastic import GaussMarkov, smoother_bound
 
@@ -85,18 +87,24 @@ EFFICIENCY_CONFIDENCE = 0.95
 def optimal_scores(scenario, seed: int, causal: bool = False) -> list[dict]:
     """Score rows (metric ``optimal_rmse``, region ``interior``) of the optimal estimator
     (:func:`optimal_states`; ``causal``: the filter) on ``scenario``'s realisation ``seed``,
-    for each derivative order 1..2 the signal has."""
+    for each derivative order 1..2 the signal has. Every method's cell on that seed needs the
+    same rows: they are kept for the last few (scenario, seed, causal) of the process."""
     scenario_bound(scenario, 1)  # refuses a scenario without a bound
+    return [dict(row) for row in _optimal_scores(scenario, int(seed), bool(causal))]
+
+
+@functools.lru_cache(maxsize=64)
+def _optimal_scores(scenario, seed: int, causal: bool) -> tuple[dict, ...]:
     realisation = scenario.realise(seed)
     noise_std = scenario.noise.models[0].std
     estimates = optimal_states(scenario.signal, scenario.dt_s, noise_std, realisation.x, causal)
     inside = realisation.interior
-    return [
+    return tuple(
         {"order": order, "region": "interior", "metric": "optimal_rmse",
          "value": float(np.sqrt(np.mean((estimates[inside, order]
                                          - realisation.truth[order][inside]) ** 2)))}
         for order in (1, 2) if order < estimates.shape[1]
-    ]  # fmt: skip
+    )  # fmt: skip
 
 
 def efficiency_table(cells: pd.DataFrame) -> pd.DataFrame:
@@ -167,6 +175,19 @@ EFFICIENCY_LEGEND = (
 )
 
 
+def _efficiency_columns(table: pd.DataFrame) -> dict[str, list[str]]:
+    """The people's columns of an efficiency table: efficiency ± its interval, the method's
+    RMSE and the least RMSE."""
+    from diffbench.bench import tables
+
+    return {
+        "efficiency": [tables.plus_minus(e, h) for e, h in
+                       zip(table["efficiency"], table["efficiency_half_width"], strict=True)],
+        "RMSE": [f"{np.sqrt(m):.4g}" for m in table["mse"]],
+        "least RMSE": [f"{np.sqrt(b):.4g}" for b in table["bound"]],
+    }  # fmt: skip
+
+
 def write_efficiency_report(cells: pd.DataFrame, directory) -> list:
     """``efficiency.md``/``.csv``: :func:`efficiency_table` of the cells, one row per entry and
     order, best first within each order."""
@@ -179,13 +200,9 @@ def write_efficiency_report(cells: pd.DataFrame, directory) -> list:
         ["task", "order", "efficiency"], ascending=[True, True, False], kind="stable"
     )
     shown = pd.DataFrame({
-        "n": ["ẋ" if order == 1 else "ẍ" for order in table["order"]],
+        "n": [ORDER_SYMBOLS[order] for order in table["order"]],
         "method": table["method"], "setting": table["setting"],
-        "parameters": table["parameters"],
-        "efficiency": [tables.plus_minus(e, h) for e, h in
-                       zip(table["efficiency"], table["efficiency_half_width"], strict=True)],
-        "RMSE": [f"{np.sqrt(m):.4g}" for m in table["mse"]],
-        "least RMSE": [f"{np.sqrt(b):.4g}" for b in table["bound"]],
+        "parameters": table["parameters"], **_efficiency_columns(table),
         "seeds": table["seeds"].astype(str),
     })  # fmt: skip
     task = table["task"].iloc[0]
@@ -266,16 +283,12 @@ def write_study(cells: pd.DataFrame, directory) -> list:
                          "`diffbench limit` first")  # fmt: skip
     table = table.sort_values(["family", "order", "noise_std", "criterion", "efficiency"],
                               ascending=[True, True, True, True, False], kind="stable")  # fmt: skip
-    symbol = {1: "ẋ", 2: "ẍ"}
     shown = pd.DataFrame({
         "signal": table["family"], "noise": [f"{v:g}" for v in table["noise_std"]],
-        "n": [symbol[o] for o in table["order"]], "tuned by": table["criterion"],
+        "n": [ORDER_SYMBOLS[o] for o in table["order"]], "tuned by": table["criterion"],
         "method": table["method"],
         "bound": ["causal" if c else "smoother" for c in table["causal_bound"]],
-        "efficiency": [tables.plus_minus(e, h) for e, h in
-                       zip(table["efficiency"], table["efficiency_half_width"], strict=True)],
-        "RMSE": [f"{np.sqrt(m):.4g}" for m in table["mse"]],
-        "least RMSE": [f"{np.sqrt(b):.4g}" for b in table["bound"]],
+        **_efficiency_columns(table),
         "parameters": [tables.readable_params(m, p) for m, p in
                        zip(table["method"], table["params"], strict=True)],
     })  # fmt: skip
@@ -297,11 +310,10 @@ def write_study(cells: pd.DataFrame, directory) -> list:
                             kind="stable")  # fmt: skip
     best_shown = pd.DataFrame({
         "signal": best["family"], "noise": [f"{v:g}" for v in best["noise_std"]],
-        "n": [symbol[o] for o in best["order"]],
+        "n": [ORDER_SYMBOLS[o] for o in best["order"]],
         "bound": ["causal" if c else "smoother" for c in best["causal_bound"]],
         "tuned by": best["criterion"], "best method": best["method"],
-        "efficiency": [tables.plus_minus(e, h) for e, h in
-                       zip(best["efficiency"], best["efficiency_half_width"], strict=True)],
+        "efficiency": _efficiency_columns(best)["efficiency"],
     })  # fmt: skip
     written += tables.write_report(
         directory,
@@ -336,7 +348,7 @@ def _efficiency_figure(table: pd.DataFrame, path, figures):
         axis.axhline(1.0, color="black", linewidth=0.8)
         axis.set_xscale("log")
         axis.set_yscale("log")
-        axis.set_title(f"{family}, {'ẋ' if order == 1 else 'ẍ'}")
+        axis.set_title(f"{family}, {ORDER_SYMBOLS[order]}")
         axis.set_xlabel("noise standard deviation")
         axis.set_ylabel("efficiency (1 = optimal)")
     for axis in list(axes.flat)[len(panels) :]:

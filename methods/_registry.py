@@ -550,8 +550,8 @@ def _package_of_class(cls: type[Method]) -> str:
     package = cls.package
     if package is None:
         top = cls.__module__.split(".")[0]
-        names = [] if top == "diffbench" else distributions_of_modules().get(top, [])
-        package = "diffbench" if top == "diffbench" else (names[0] if names else top)
+        names = ["diffbench"] if top == "diffbench" else distributions_of_modules().get(top, [])
+        package = names[0] if names else top
     try:
         return f"{package} {metadata.version(package)}"
     except metadata.PackageNotFoundError:
