@@ -1,10 +1,12 @@
-"""How close to the optimum: the exact optimal estimator of a Gauss–Markov signal
-(:mod:`diffbench.signals.stochastic`), which reaches the bound, for the Monte Carlo that checks
-the bound and for efficiencies.
+"""How close to the optimum: the exact optimal estimator of a random signal with a known
+spectrum (:mod:`diffbench.signals.stochastic`), which reaches the bound, for the Monte Carlo
+that checks the bound and for efficiencies.
 
-The optimal estimate of the state from every sample is the Rauch–Tung–Striebel smoother with
-the true model (and from the samples up to t, the Kalman filter). Its gains do not depend on
-the data, so many realisations (columns) are filtered at once.
+For a Gauss–Markov signal the optimal estimate of the state from every sample is the
+Rauch–Tung–Striebel smoother with the true model (and from the samples up to t, the Kalman
+filter). Its gains do not depend on the data, so many realisations (columns) are filtered at
+once. A band-limited signal has no finite state: its optimal estimate is its exact Gaussian
+posterior on the record (:func:`diffbench.signals.stochastic.gaussian_posterior`).
 
 References: H. E. Rauch, F. Tung, C. T. Striebel, "Maximum likelihood estimates of linear
 dynamic systems", AIAA J. 3 (1965); Anderson & Moore, *Optimal Filtering* (1979), ch. 7.
@@ -21,7 +23,12 @@ import pandas as pd
 
 from diffbench.bench.roles import ORDER_SYMBOLS
 from diffbench.signals.noise import Gaussian
-from diffbench.signals.stochastic import GaussMarkov, smoother_bound
+from diffbench.signals.stochastic import (
+    BandLimited,
+    GaussMarkov,
+    gaussian_posterior,
+    smoother_bound,
+)
 
 
 def optimal_states(
@@ -68,17 +75,32 @@ def optimal_states(
 
 def scenario_bound(scenario, order: int, causal: bool = False) -> float:
     """The least mean squared error of the derivative of ``order`` any method can reach on
-    the interior of ``scenario`` (a Gauss–Markov signal in white Gaussian noise, uniformly
-    sampled): :func:`diffbench.signals.stochastic.smoother_bound` (``causal``: from past
-    samples only)."""
+    the interior of ``scenario`` (a random signal with a known spectrum in white Gaussian
+    noise, uniformly sampled; ``causal``: from past samples only): for a Gauss–Markov signal
+    the infinite record's (:func:`diffbench.signals.stochastic.smoother_bound`, which the
+    interior's error reaches far from the ends), for a band-limited one the exact posterior
+    variance on this record, averaged over its interior (the infinite record's is not
+    reached within a few seconds: tested)."""
     models = scenario.noise.models
-    if not (isinstance(scenario.signal, GaussMarkov) and len(models) == 1
+    if not (isinstance(scenario.signal, (GaussMarkov, BandLimited)) and len(models) == 1
             and isinstance(models[0], Gaussian) and not scenario.sampling):  # fmt: skip
         raise ValueError(
-            f"scenario {scenario.name!r} has no known bound: it needs a Gauss–Markov signal "
-            "(diffbench.signals.stochastic) in white Gaussian noise, uniformly sampled"
+            f"scenario {scenario.name!r} has no known bound: it needs a Gauss–Markov or "
+            "band-limited signal (diffbench.signals.stochastic) in white Gaussian noise, "
+            "uniformly sampled"
         )
-    return smoother_bound(scenario.signal, scenario.dt_s, models[0].std, order, causal)
+    if isinstance(scenario.signal, GaussMarkov):
+        return smoother_bound(scenario.signal, scenario.dt_s, models[0].std, order, causal)
+    return _record_bound(scenario, int(order), bool(causal))
+
+
+@functools.lru_cache(maxsize=64)
+def _record_bound(scenario, order: int, causal: bool) -> float:
+    if order not in (1, 2):
+        raise ValueError(f"`order` must be 1 or 2, got {order!r}")
+    posterior = gaussian_posterior(scenario.signal, scenario.dt_s, scenario.n_samples,
+                                   scenario.noise.models[0].std, causal)  # fmt: skip
+    return float(np.mean(posterior.variance[order][scenario.interior]))
 
 
 EFFICIENCY_CONFIDENCE = 0.95
@@ -97,7 +119,14 @@ def optimal_scores(scenario, seed: int, causal: bool = False) -> list[dict]:
 def _optimal_scores(scenario, seed: int, causal: bool) -> tuple[dict, ...]:
     realisation = scenario.realise(seed)
     noise_std = scenario.noise.models[0].std
-    estimates = optimal_states(scenario.signal, scenario.dt_s, noise_std, realisation.x, causal)
+    if isinstance(scenario.signal, GaussMarkov):
+        estimates = optimal_states(scenario.signal, scenario.dt_s, noise_std, realisation.x,
+                                   causal)  # fmt: skip
+    else:
+        posterior = gaussian_posterior(scenario.signal, scenario.dt_s, realisation.x.size,
+                                       noise_std, causal)  # fmt: skip
+        estimates = np.column_stack([realisation.x] + [posterior.weights[order] @ realisation.x
+                                                       for order in (1, 2)])  # fmt: skip
     inside = realisation.interior
     return tuple(
         {"order": order, "region": "interior", "metric": "optimal_rmse",
@@ -116,7 +145,8 @@ def efficiency_table(cells: pd.DataFrame) -> pd.DataFrame:
         on the same realisation}
 
     (``optimal_rmse`` rows: the RTS smoother with the true model, or the Kalman filter for a
-    causal method, whose bound is the causal one). Its expectation is the bound over the
+    causal method, whose bound is the causal one; a band-limited signal's exact posterior
+    from every sample or from the past ones). Its expectation is the bound over the
     method's MSE; pairing each seed's realisation with itself cancels how hard that
     realisation happened to be, so the interval is narrow where the method is near optimal
     (exactly 0 for a method that *is* the optimal estimator). The 95 % interval is the delta
@@ -166,12 +196,13 @@ EFFICIENCY_LEGEND = (
     "Efficiency = the optimal estimator's MSE / the method's, summed over the same "
     "realisations (1 = optimal; its expectation is the least possible MSE over the method's); "
     "the optimal estimator is the RTS smoother with the true model, the Kalman filter for "
-    "causal methods (bound: causal). ± the 95 % interval over the seeds (delta method, paired). "
-    "RMSE: the method's over these seeds (below the least RMSE where the realisations "
+    "causal methods (bound: causal); for a band-limited signal its exact posterior mean from "
+    "every sample or from the past ones. ± the 95 % interval over the seeds (delta method, "
+    "paired). RMSE: the method's over these seeds (below the least RMSE where the realisations "
     "happened to be easy: the efficiency pairs them). Least RMSE: the square root of the "
-    "least possible MSE far from the ends "
-    "(diffbench.signals.stochastic.smoother_bound). An efficiency above 1 beyond its interval "
-    "is a bug, or a 1-in-40 chance."
+    "least possible MSE far from the ends (diffbench.signals.stochastic.smoother_bound), or "
+    "for a band-limited signal on this record's interior (gaussian_posterior). An efficiency "
+    "above 1 beyond its interval is a bug, or a 1-in-40 chance."
 )
 
 

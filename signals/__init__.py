@@ -36,10 +36,11 @@ from diffbench.signals.scenarios import (
     get_scenario,
     register_scenario,
 )
-from diffbench.signals.stochastic import IntegratedWhiteNoise, Matern, RandomSignal
+from diffbench.signals.stochastic import BandLimited, IntegratedWhiteNoise, Matern, RandomSignal
 from diffbench.signals.timing import Dropout, Jitter, SamplingModel
 
 __all__ = [
+    "BandLimited",
     "Chirp",
     "DampedOscillation",
     "Dropout",

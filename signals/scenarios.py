@@ -20,7 +20,7 @@ import numpy as np
 from diffbench.signals._checks import check_real, check_seed, check_times, read_only
 from diffbench.signals.clean import Chirp, DampedOscillation, PaperSines, Polynomial, Signal, Truth
 from diffbench.signals.noise import Gaussian, NoiseStack, Poisson, Quantisation, Sinusoid
-from diffbench.signals.stochastic import IntegratedWhiteNoise, Matern
+from diffbench.signals.stochastic import BandLimited, IntegratedWhiteNoise, Matern
 from diffbench.signals.timing import Dropout, Jitter, SamplingModel
 
 _STEPS_RTOL = 1e-9
@@ -184,6 +184,12 @@ class Scenario:
     def t(self) -> np.ndarray:
         """Sample times in seconds, ``dt_s * arange(n_samples)``."""
         return self.dt_s * np.arange(self.n_samples)
+
+    @property
+    def interior(self) -> np.ndarray:
+        """The samples of the uniform times :attr:`t` scored as the interior: at least
+        ``interior_margin_s`` from both ends."""
+        return self._interior(self.t)
 
     def _interior(self, t: np.ndarray) -> np.ndarray:
         slack = 1e-9 * self.dt_s
@@ -490,9 +496,11 @@ LIMIT_SIGNALS = {
     "matern72": Matern(smoothness=3.5, length_scale_s=0.1, std=1.0),
     "iwn2": IntegratedWhiteNoise(times=2, intensity=1e2),
     "iwn3": IntegratedWhiteNoise(times=3, intensity=1e6),
+    "band20": BandLimited(band_hz=20.0, std=1.0, lines=600),
 }
 """The random signals of the limit scenarios (:mod:`diffbench.signals.stochastic`): at 1 ms
-and these noise levels the optimal smoother's half-gain bandwidth lies between about 5 and 90 Hz.
+and these noise levels the optimal smoother's half-gain bandwidth lies between about 5 and 90 Hz
+(the band-limited one's is its band, 20 Hz: its signal stands far above the noise inside it).
 """
 LIMIT_DT_S, LIMIT_DURATION_S, LIMIT_MARGIN_S = 1e-3, 3.0, 1.0
 
@@ -523,7 +531,12 @@ for _family, _signal in LIMIT_SIGNALS.items():
                     f"{LIMIT_DT_S * 1e3:g} ms for {LIMIT_DURATION_S:g} s, plus white Gaussian "
                     f"noise of standard deviation {_level:g}; scored on the middle "
                     f"{LIMIT_DURATION_S - 2 * LIMIT_MARGIN_S:g} s, where the least error any "
-                    "method can reach is the infinite record's (diffbench.signals.stochastic)."
+                    + (
+                        "method can reach is the exact posterior's on this record"
+                        if isinstance(_signal, BandLimited)
+                        else "method can reach is the infinite record's"
+                    )
+                    + " (diffbench.signals.stochastic)."
                 ),
                 preset="default",
             )

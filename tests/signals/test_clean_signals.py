@@ -25,7 +25,8 @@ from diffbench.signals import (
 )
 
 BUILTIN = ["chirp", "damped_oscillation", "paper_sines", "polynomial"]
-RANDOM = ["integrated_white_noise", "matern"]  # drawn, not evaluated: tests/signals/test_stochastic
+# drawn, not evaluated: tests/signals/test_stochastic
+RANDOM = ["band_limited", "integrated_white_noise", "matern"]
 
 # Dyadic times and steps: t ± h is then exact in binary floating point, so the finite
 # differences below see exactly the step they divide by.

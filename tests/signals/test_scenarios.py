@@ -58,7 +58,7 @@ def test_available_scenarios_lists_the_builtins_sorted():
     assert len([n for n in names if n.startswith("grid-")]) == 36 + 4  # + jitter, dropout
     limits = [n for n in names if n.startswith("limit-")]
     assert sorted(limits) == sorted(scenarios_module.limit_scenario_names())
-    assert len(limits) == 4 * 3  # signal families x noise levels
+    assert len(limits) == 5 * 3  # signal families x noise levels
 
 
 def test_unknown_scenario_lists_the_valid_names():
