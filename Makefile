@@ -73,7 +73,8 @@ studies: $(STAMP)
 	$(BIN)/diffbench recommend-check --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench limit --methods native,$(GRID_PEERS),causal --seeds 20 --jobs 2 \
 	  --out $(STUDIES)
-	for task in limit-matern52-0.01 limit-matern72-0.01 limit-iwn2-0.01 limit-iwn3-0.01; do \
+	for task in limit-matern52-0.01 limit-matern72-0.01 limit-iwn2-0.01 limit-iwn3-0.01 \
+	  limit-band20-0.01; do \
 	  $(BIN)/diffbench pareto $$task --methods native --jobs 2 --out $(STUDIES) || exit 1; done
 	$(BIN)/diffbench export pendulum-500hz-jitter $(STUDIES)/recommend-example/pendulum.csv
 	$(BIN)/diffbench recommend $(STUDIES)/recommend-example/pendulum.csv --time t --column x \

@@ -274,7 +274,7 @@ def tuning_jobs(names, orders=(1, 2), tasks=None, criteria=CRITERIA) -> list:
         for criterion in criteria
         for name in names
         for order in orders
-        if order < signals.get_scenario(task).signal.model().states
+        if order in signals.get_scenario(task).signal.derivative_orders
     ]
 
 

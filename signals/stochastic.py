@@ -79,6 +79,8 @@ class RandomSignal(Signal):
     to evaluate)."""
 
     random: ClassVar[bool] = True
+    derivative_orders: ClassVar[tuple[int, ...]] = (1, 2)
+    """The derivative orders (1..2) that exist and are drawn."""
 
     @abc.abstractmethod
     def draw(self, t: np.ndarray, rng: np.random.Generator) -> Truth:
@@ -141,6 +143,11 @@ class GaussMarkov(RandomSignal):
     @abc.abstractmethod
     def model(self) -> Model:
         """The state-space model."""
+
+    @property
+    def derivative_orders(self) -> tuple[int, ...]:
+        """The orders 1..2 the state holds."""
+        return tuple(range(1, min(self.model().states, MAX_ORDER + 1)))
 
     @abc.abstractmethod
     def spectral_density(self, frequency_hz) -> np.ndarray:

@@ -200,3 +200,16 @@ def test_a_brick_wall_just_above_the_band_comes_near_the_band_limited_bound():
     assert table.loc[("spectral", 1), "bound"] == pytest.approx(
         table.loc[("spectral", 1), "optimal_mse"], rel=0.25
     )
+
+
+def test_the_study_tunes_each_order_the_signal_has():
+    # ẍ of twice-integrated white noise does not exist; the band-limited signal has both
+    jobs = limit.tuning_jobs(["kalman"], (1, 2))
+    orders = {}
+    for job in jobs:
+        orders.setdefault(job.task, set()).add(job.order)
+        assert job.criterion in ("oracle", "surrogate")
+    assert set(orders) == set(limit.task_names()) and len(orders) == 15
+    assert orders["limit-iwn2-0.01"] == {1}
+    assert orders["limit-band20-0.01"] == orders["limit-matern52-0.01"] == {1, 2}
+    assert len(jobs) == 2 * (12 * 2 + 3)  # two criteria; the 3 iwn2 tasks only ẋ

@@ -279,7 +279,7 @@ def test_the_band_limited_bound_is_reached_by_its_optimal_estimator_within_monte
 
 def test_the_band_limited_record_bound_is_near_the_infinite_records_wiener_integral():
     # ∫ (2πf)^2n S N/(S + N) df over the flat band (S = σ²/2B, N = σ_n² Δt) is the infinite
-    # record's bound; 3 s of record cost the middle second 5-20 % more (measured: 9-16 %)
+    # record's bound; 3 s of record cost the middle second 3-25 % more (measured: 6 and 10 %)
     signal = BandLimited(band_hz=20.0, std=1.0, lines=300)
     dt, n, noise_std = 2e-3, 1501, 0.01
     posterior = gaussian_posterior(signal, dt, n, noise_std)
