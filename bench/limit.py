@@ -96,8 +96,9 @@ def scenario_bound(scenario, order: int, causal: bool = False) -> float:
 
 @functools.lru_cache(maxsize=64)
 def _record_bound(scenario, order: int, causal: bool) -> float:
-    if order not in (1, 2):
-        raise ValueError(f"`order` must be 1 or 2, got {order!r}")
+    if order not in scenario.signal.derivative_orders:
+        raise ValueError(f"`order` must be one of {scenario.signal.derivative_orders}, got "
+                         f"{order!r}")  # fmt: skip
     posterior = gaussian_posterior(scenario.signal, scenario.dt_s, scenario.n_samples,
                                    scenario.noise.models[0].std, causal)  # fmt: skip
     return float(np.mean(posterior.variance[order][scenario.interior]))
@@ -118,21 +119,20 @@ def optimal_scores(scenario, seed: int, causal: bool = False) -> list[dict]:
 @functools.lru_cache(maxsize=64)
 def _optimal_scores(scenario, seed: int, causal: bool) -> tuple[dict, ...]:
     realisation = scenario.realise(seed)
+    signal, x = scenario.signal, realisation.x
     noise_std = scenario.noise.models[0].std
-    if isinstance(scenario.signal, GaussMarkov):
-        estimates = optimal_states(scenario.signal, scenario.dt_s, noise_std, realisation.x,
-                                   causal)  # fmt: skip
+    if isinstance(signal, GaussMarkov):
+        states = optimal_states(signal, scenario.dt_s, noise_std, x, causal)
+        estimates = {order: states[:, order] for order in signal.derivative_orders}
     else:
-        posterior = gaussian_posterior(scenario.signal, scenario.dt_s, realisation.x.size,
-                                       noise_std, causal)  # fmt: skip
-        estimates = np.column_stack([realisation.x] + [posterior.weights[order] @ realisation.x
-                                                       for order in (1, 2)])  # fmt: skip
+        posterior = gaussian_posterior(signal, scenario.dt_s, x.size, noise_std, causal)
+        estimates = {order: posterior.weights[order] @ x for order in signal.derivative_orders}
     inside = realisation.interior
     return tuple(
         {"order": order, "region": "interior", "metric": "optimal_rmse",
-         "value": float(np.sqrt(np.mean((estimates[inside, order]
+         "value": float(np.sqrt(np.mean((estimate[inside]
                                          - realisation.truth[order][inside]) ** 2)))}
-        for order in (1, 2) if order < estimates.shape[1]
+        for order, estimate in estimates.items()
     )  # fmt: skip
 
 

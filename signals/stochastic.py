@@ -539,10 +539,8 @@ def _posterior(signal, dt: float, samples: int, noise_std: float, causal: bool) 
     root = linalg.cholesky(covariance, lower=True, overwrite_a=True)
     del covariance
     weights, variance = {}, {}
-    for order in (1, 2):
+    for order in signal.derivative_orders:
         prior = float(signal.cross_covariance(0.0, order, order)[0])
-        if not math.isfinite(prior):
-            continue
         # C[i, k] = Cov(x^(n)(t_k), x(t_i)): lag t_k - t_i
         cross = linalg.toeplitz(signal.cross_covariance(-lags, order, 0),
                                 signal.cross_covariance(lags, order, 0))  # fmt: skip

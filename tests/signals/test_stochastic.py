@@ -31,10 +31,6 @@ SIGNALS = [
 IDS = [s.describe() for s in SIGNALS]
 
 
-def _orders(signal):
-    return range(1, min(signal.model().states, 3))
-
-
 @pytest.mark.parametrize("nu", [2.5, 3.5])
 def test_matern_spectrum_and_state_model_give_its_variances(nu):
     # the spectral density integrates to σ² and (2πf)² times it to Var(ẋ) = σ²ν/((ν-1)ℓ²)
@@ -61,7 +57,7 @@ def test_drawn_derivatives_match_finite_differences_of_a_fine_realisation(signal
     t = np.arange(0.0, 0.2, step)
     truth = signal.draw(t, np.random.default_rng(3))
     top = signal.model().states - 1
-    for order in _orders(signal):
+    for order in signal.derivative_orders:
         below = truth[order - 1]
         differences = (below[2:] - below[:-2]) / (2 * step)
         exact = truth[order][1:-1]
