@@ -16,6 +16,34 @@ and memory in proportion to the window (measured at this length, q = 40: 0.4 s f
 trapezoid rule, a few seconds for its linear rule); 1e300 s used to overflow."""
 
 
+class DeferredValueError(ValueError):
+    """A ``ValueError`` whose message is composed when it is first read (``str``, a
+    traceback, pickling), by ``compose()``.
+
+    For refusals whose message searches for the settings that would work (e.g. the shortest
+    window a Jacobi design takes, found by computing taps): a tuner catches thousands of
+    refusals as +inf and reads none, and paid for every search (a third of a Jacobi tuning).
+    The user who reads the error gets the same message as before. Pickled (a worker process's
+    error) it becomes a plain ``ValueError`` with the composed message.
+    """
+
+    def __init__(self, compose) -> None:
+        super().__init__()
+        self._compose = compose
+        self._message: str | None = None
+
+    def __str__(self) -> str:
+        if self._message is None:
+            self._message = self._compose()
+        return self._message
+
+    def __repr__(self) -> str:
+        return f"ValueError({str(self)!r})"
+
+    def __reduce__(self):
+        return (ValueError, (str(self),))
+
+
 def check_dt(dt: float) -> float:
     """Return ``dt`` as a float, or raise ``ValueError`` if it is not a finite number > 0."""
     try:

@@ -9,7 +9,7 @@ import numpy as np
 from diffbench.methods._fir import apply_central_firs
 from diffbench.methods._local_poly import apply_fir_with_ends, end_evaluators
 from diffbench.methods._registry import FirMethod, Preset, param, register
-from diffbench.methods._validation import MAX_WINDOW_STEPS
+from diffbench.methods._validation import MAX_WINDOW_STEPS, DeferredValueError
 from diffbench.methods.jacobi_kernel import (
     MAX_AMPLIFICATION,
     MAX_EXPONENT,
@@ -201,6 +201,11 @@ class Jacobi(FirMethod):
         worst, order = self._worst_amplification(self.kappa, self.mu, self.q)
         if worst <= MAX_AMPLIFICATION:
             return
+        raise DeferredValueError(lambda: self._amplification_message(worst, order))
+
+    def _amplification_message(self, worst: float, order: int) -> str:
+        """The refusal of :meth:`_check_amplification`, with the range of the larger exponent
+        that works (searched: composed only when read)."""
         name, other_name = ("mu", "kappa") if self.mu >= self.kappa else ("kappa", "mu")
         value, other = getattr(self, name), getattr(self, other_name)
 
@@ -221,7 +226,7 @@ class Jacobi(FirMethod):
             None,
         )
         or_q = "" if lower_q is None else f"; or lower `q` to at most {lower_q}"
-        raise ValueError(
+        return (
             f"`{name}` must be in [{low:g}, {high:g}] with {other_name}={other!r} and "
             f"q={self.q} (the weight is so lopsided that the order-{order} kernel multiplies "
             f"rounding and noise by {worst:.3g}, more than {MAX_AMPLIFICATION:.0e}: the "
@@ -280,8 +285,22 @@ class Jacobi(FirMethod):
         if not failing:
             return
         worst = max(failing, key=errors.get)
+        raise DeferredValueError(
+            lambda: self._window_message(name, orders, dt, m, errors[worst], worst)
+        )
+
+    def _window_message(
+        self, name: str, orders: tuple[int, ...], dt: float, m: int, error: float, worst: int
+    ) -> str:
+        """The refusal of :meth:`_check_window`, with the shortest window that works for this
+        rule and the others (searched by computing taps: composed only when read)."""
+        window = getattr(self, name)
+        longest = f"{2 * (MAX_WINDOW_STEPS // 2) * dt:.6g}"
+        fewest = (max(orders) + self.q + 2) // 2
+        design = (self.kappa, self.mu, self.q)
+        tolerance = RULE_TOLERANCE[self.rule]
         missed = (
-            f"on {window!r} s the order-{worst} taps are off by {errors[worst]:.2g} on "
+            f"on {window!r} s the order-{worst} taps are off by {error:.2g} on "
             f"polynomials up to degree {worst + self.q}, more than {tolerance:g}"
         )
         limit = min(MAX_WINDOW_STEPS // 2, SEARCH_HALF_WIDTH)
@@ -299,11 +318,11 @@ class Jacobi(FirMethod):
         )
         settings = f"kappa={self.kappa!r}, mu={self.mu!r}, q={self.q}"
         if this_rule is None:
-            raise ValueError(
+            return (
                 f"`rule`={self.rule!r} fails for {settings} at dt={dt!r} s on every `{name}` "
                 f"up to {2 * limit * dt:.6g} s ({missed}): {alternatives or 'no rule works'}"
             )
-        raise ValueError(
+        return (
             f"`{name}` must be in [{2 * this_rule * dt:.6g}, {longest}] s at dt={dt!r} s for "
             f"rule={self.rule!r} with {settings} (shorter, too few samples resolve the kernel: "
             f"{missed}), got {window!r}" + (f"; {alternatives}" if alternatives else "")

@@ -212,3 +212,28 @@ def test_kernel_rejects_bad_design():
         kernel(0.0, 1, -1.0, 1.0, 2)
     with pytest.raises(ValueError, match=r"`q` must be an integer >= 0"):
         kernel(0.0, 1, 1.0, 1.0, 1.5)
+
+
+def test_a_refusal_composes_its_search_only_when_read_and_pickles_as_a_value_error():
+    """A window too short for the rule is refused at once; the shortest window that works
+    (a search that computes taps) is composed when the message is read, once, and a worker
+    process's copy (pickled) is a plain ValueError with the same message."""
+    import pickle
+
+    from diffbench.methods import jacobi_kernel
+
+    # trapezoid misses by 6e4 on any window here (see test_parameter_limits)
+    method = methods.get("jacobi", kappa=0.0, mu=46.0, q=12)
+    jacobi_kernel.discretisation_error.cache_clear()
+    with pytest.raises(ValueError) as refused:
+        method(np.zeros(1000), 1e-3)
+    searched_before = jacobi_kernel.discretisation_error.cache_info().currsize
+    message = str(refused.value)
+    searched_after = jacobi_kernel.discretisation_error.cache_info().currsize
+    assert searched_after > searched_before  # the search ran when the message was read
+    assert message.startswith("`rule`='trapezoid' fails for kappa=0.0"), message
+    assert "rule='linear' works from" in message
+    assert str(refused.value) == message
+    assert jacobi_kernel.discretisation_error.cache_info().currsize == searched_after  # once
+    copy = pickle.loads(pickle.dumps(refused.value))
+    assert type(copy) is ValueError and str(copy) == message
