@@ -1,7 +1,7 @@
 r"""Real 2R robot recordings: the DFKI double pendulum, its model and its base parameters.
 
 Six 10 s recordings of a real two-link robot (DFKI RIC Underactuated Robotics Lab, design C.0,
-2022-09-14; BSD 3-Clause, see ``data/dfki_double_pendulum/LICENSE`` and ``README.md`` beside
+2022-09-14; BSD 3-Clause, see ``data/dfki-double-pendulum/LICENSE`` and ``README.md`` beside
 the data) and the lab's own identified model. The runs are open-loop torque excitations: the
 commanded torque (``tau_con``) is a prescribed signal on one or both joints (runs 3 and 4 drive
 joint 2 only, run 5 joint 1 only), not the output of a tracking controller. The real parameters
@@ -155,7 +155,7 @@ _PHYSICAL_NAMES = (
     "cf2",
 )
 
-_DATA = ("data", "dfki_double_pendulum")
+_DATA = ("data", "dfki-double-pendulum")
 
 # CSV columns read by the loader, in the order they are stacked before resampling.
 _COLUMNS = (

@@ -219,7 +219,7 @@ def test_dfki_passive_joints_are_not_scored():
 def _copies(tmp_path, runs):
     from importlib.resources import files
 
-    data = files("diffbench.signals") / "data" / "dfki_double_pendulum"
+    data = files("diffbench.signals") / "data" / "dfki-double-pendulum"
     paths = []
     for run in runs:
         path = tmp_path / f"trajectory_0{run}.csv.gz"

@@ -29,7 +29,7 @@ from diffbench.signals.dfki import (
     tie_a4_to_a6,
 )
 
-DATA = files("diffbench.signals") / "data" / "dfki_double_pendulum"
+DATA = files("diffbench.signals") / "data" / "dfki-double-pendulum"
 RAW_ROWS = (4993, 4974, 4979, 4993, 4999, 4997)  # data rows of trajectory_00..05.csv
 
 
