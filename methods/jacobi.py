@@ -285,48 +285,40 @@ class Jacobi(FirMethod):
         if not failing:
             return
         worst = max(failing, key=errors.get)
-        raise DeferredValueError(
-            lambda: self._window_message(name, orders, dt, m, errors[worst], worst)
-        )
 
-    def _window_message(
-        self, name: str, orders: tuple[int, ...], dt: float, m: int, error: float, worst: int
-    ) -> str:
-        """The refusal of :meth:`_check_window`, with the shortest window that works for this
-        rule and the others (searched by computing taps: composed only when read)."""
-        window = getattr(self, name)
-        longest = f"{2 * (MAX_WINDOW_STEPS // 2) * dt:.6g}"
-        fewest = (max(orders) + self.q + 2) // 2
-        design = (self.kappa, self.mu, self.q)
-        tolerance = RULE_TOLERANCE[self.rule]
-        missed = (
-            f"on {window!r} s the order-{worst} taps are off by {error:.2g} on "
-            f"polynomials up to degree {worst + self.q}, more than {tolerance:g}"
-        )
-        limit = min(MAX_WINDOW_STEPS // 2, SEARCH_HALF_WIDTH)
-        # orders that pass at m pass on longer windows too (the error falls as M grows)
-        this_rule = shortest_half_width(orders, *design, dt, self.rule, m + 1, limit)
-        others = {
-            rule: shortest_half_width(orders, *design, dt, rule, fewest, limit)
-            for rule in RULES
-            if rule != self.rule and (rule == "linear" or min(self.kappa, self.mu) >= 0)
-        }
-        alternatives = "; ".join(
-            f"rule={rule!r} works from {2 * other * dt:.6g} s"
-            for rule, other in others.items()
-            if other is not None
-        )
-        settings = f"kappa={self.kappa!r}, mu={self.mu!r}, q={self.q}"
-        if this_rule is None:
-            return (
-                f"`rule`={self.rule!r} fails for {settings} at dt={dt!r} s on every `{name}` "
-                f"up to {2 * limit * dt:.6g} s ({missed}): {alternatives or 'no rule works'}"
+        def message() -> str:
+            # the shortest window that works for this rule and the others, searched by
+            # computing taps: only when the refusal is read (DeferredValueError)
+            missed = (
+                f"on {window!r} s the order-{worst} taps are off by {errors[worst]:.2g} on "
+                f"polynomials up to degree {worst + self.q}, more than {tolerance:g}"
             )
-        return (
-            f"`{name}` must be in [{2 * this_rule * dt:.6g}, {longest}] s at dt={dt!r} s for "
-            f"rule={self.rule!r} with {settings} (shorter, too few samples resolve the kernel: "
-            f"{missed}), got {window!r}" + (f"; {alternatives}" if alternatives else "")
-        )
+            limit = min(MAX_WINDOW_STEPS // 2, SEARCH_HALF_WIDTH)
+            # orders that pass at m pass on longer windows too (the error falls as M grows)
+            this_rule = shortest_half_width(orders, *design, dt, self.rule, m + 1, limit)
+            others = {
+                rule: shortest_half_width(orders, *design, dt, rule, fewest, limit)
+                for rule in RULES
+                if rule != self.rule and (rule == "linear" or min(self.kappa, self.mu) >= 0)
+            }
+            alternatives = "; ".join(
+                f"rule={rule!r} works from {2 * other * dt:.6g} s"
+                for rule, other in others.items()
+                if other is not None
+            )
+            settings = f"kappa={self.kappa!r}, mu={self.mu!r}, q={self.q}"
+            if this_rule is None:
+                return (
+                    f"`rule`={self.rule!r} fails for {settings} at dt={dt!r} s on every `{name}` "
+                    f"up to {2 * limit * dt:.6g} s ({missed}): {alternatives or 'no rule works'}"
+                )
+            return (
+                f"`{name}` must be in [{2 * this_rule * dt:.6g}, {longest}] s at dt={dt!r} s for "
+                f"rule={self.rule!r} with {settings} (shorter, too few samples resolve the kernel: "
+                f"{missed}), got {window!r}" + (f"; {alternatives}" if alternatives else "")
+            )
+
+        raise DeferredValueError(message)
 
     def min_samples(self, dt: float) -> int:
         return 2 * max(self._half_width(order, dt) for order in (0, 1, 2)) + 1

@@ -186,20 +186,12 @@ def kernel(tau, order: int, kappa: float, mu: float, q: int) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=256)
-def _gauss_jacobi(points: int, alpha: float, beta: float) -> tuple[np.ndarray, np.ndarray]:
-    """``scipy.special.roots_jacobi(points, alpha, beta)`` (nodes and weights, read-only),
-    cached: the taps of orders 0-2 and their amplification bounds share one design's rules,
-    and computing a rule (an eigenvalue problem) was a fifth of a Jacobi tuning."""
-    nodes, weights = special.roots_jacobi(points, alpha, beta)
-    nodes.setflags(write=False)
-    weights.setflags(write=False)
-    return nodes, weights
-
-
-@functools.lru_cache(maxsize=8)
-def _gauss_legendre(points: int) -> tuple[np.ndarray, np.ndarray]:
-    """``scipy.special.roots_legendre(points)``, read-only and cached."""
-    nodes, weights = special.roots_legendre(points)
+def _quadrature(rule, points: int, *exponents: float) -> tuple[np.ndarray, np.ndarray]:
+    """``rule(points, *exponents)`` (a ``scipy.special`` Gauss rule: nodes and weights,
+    read-only), cached: the taps of orders 0-2 and their amplification bounds share one
+    design's rules, and computing a rule (an eigenvalue problem) was a fifth of a Jacobi
+    tuning."""
+    nodes, weights = rule(points, *exponents)
     nodes.setflags(write=False)
     weights.setflags(write=False)
     return nodes, weights
@@ -361,7 +353,7 @@ def amplification(order: int, kappa: float, mu: float, q: int) -> float:
     a polynomial; its modulus is integrated to about 1e-3, ample for a bound).
     """
     check_design(order, kappa, mu, q)
-    nodes, weights = _gauss_jacobi(64, float(mu), float(kappa))
+    nodes, weights = _quadrature(special.roots_jacobi, 64, float(mu), float(kappa))
     # Q = ((1-τ)/2)^μ ((1+τ)/2)^κ S(τ) and the quadrature weights carry (1-τ)^μ (1+τ)^κ.
     values = np.abs(_kernel_parts(nodes, order, kappa, mu, q))
     total = float(np.sum(weights * values)) * 2.0 ** -(kappa + mu)
@@ -375,7 +367,7 @@ def _linear_rule(order, kappa, mu, q, m):
     taps = np.zeros(2 * m + 1)
     # Inner cells: Gauss–Legendre (the integrand is smooth there), in blocks of cells so that
     # memory stays bounded for long windows.
-    s, weights = _gauss_legendre(_QUADRATURE_POINTS)
+    s, weights = _quadrature(special.roots_legendre, _QUADRATURE_POINTS)
     fraction = (1 + s[None, :]) / 2  # hat of the right node
     for start in range(1, 2 * m - 1, _LINEAR_RULE_CELLS):
         inner = np.arange(start, min(start + _LINEAR_RULE_CELLS, 2 * m - 1))
@@ -384,7 +376,7 @@ def _linear_rule(order, kappa, mu, q, m):
         taps[inner] += np.sum(values * (1 - fraction), axis=1)
         taps[inner + 1] += np.sum(values * fraction, axis=1)
     # End cells: Gauss–Jacobi absorbs (1+τ)^κ on the left cell and (1−τ)^μ on the right.
-    s, weights = _gauss_jacobi(_QUADRATURE_POINTS, 0.0, float(kappa))
+    s, weights = _quadrature(special.roots_jacobi, _QUADRATURE_POINTS, 0.0, float(kappa))
     tau = -1 + step * (1 + s) / 2  # 1 + τ = step (1 + s) / 2
     rest = ((1 - tau) / 2) ** mu * _kernel_parts(tau, order, kappa, mu, q)
     # ((1+τ)/2)^κ = (step/4)^κ (1+s)^κ; the small factor goes on the weights first, or rest times
@@ -393,7 +385,7 @@ def _linear_rule(order, kappa, mu, q, m):
     fraction = (1 + s) / 2
     taps[0] += np.sum(values * (1 - fraction))
     taps[1] += np.sum(values * fraction)
-    s, weights = _gauss_jacobi(_QUADRATURE_POINTS, float(mu), 0.0)
+    s, weights = _quadrature(special.roots_jacobi, _QUADRATURE_POINTS, float(mu), 0.0)
     tau = 1 - step * (1 - s) / 2  # 1 − τ = step (1 − s) / 2
     rest = ((1 + tau) / 2) ** kappa * _kernel_parts(tau, order, kappa, mu, q)
     values = rest * (weights * (step / 2) * (step / 4) ** mu)
