@@ -76,31 +76,65 @@ def fused_penalty(x: np.ndarray, tv_order: int) -> tuple[float, np.ndarray]:
     return float(np.max(np.abs(nu))), fit
 
 
-def _gap(x, nu, penalty, count):
-    """Primal estimate z = x - Dᵀν, w = Dz and the duality gap Σ(λ|w| - ν w) >= 0."""
-    z = x - difference_adjoint(nu, count)
-    w = difference(z, count)
-    return z, w, float(np.sum(penalty * np.abs(w) - nu * w))
-
-
 def _interior_point(x: np.ndarray, penalty: float, count: int):
     """Primal-dual interior-point iteration on the dual box-constrained QP (see
-    :func:`trend_filter`); returns the last dual iterate ν (strictly inside the box)."""
+    :func:`trend_filter`); returns the last dual iterate ν (strictly inside the box).
+
+    Written for memory: besides ν, μ₁, μ₂ and the Newton step it holds no array of the
+    record's length from one use to the next (Dx, the slacks λ ∓ ν and the steps of μ are
+    recomputed where needed, the band matrix lives only for its solve), about ten arrays
+    at its peak."""
     m = x.shape[0] - count
-    b = difference(x, count)
     bands = _gram_bands(count)
-    upper = np.zeros((count + 1, m))
-    for d in range(1, count + 1):
-        upper[count - d, d:] = bands[d]
 
-    def gram(v):
-        return difference(difference_adjoint(v, count), count)
+    def gram_less_dx(nu):
+        """D Dᵀν - Dx (a new array): the dual residual without its μ₁ - μ₂."""
+        out = difference(difference_adjoint(nu, count), count)
+        out -= difference(x, count)
+        return out
 
-    def residual_norm(nu, mu1, mu2, inverse_t):
-        dual = gram(nu) - b + mu1 - mu2
-        centre1 = mu1 * (penalty - nu) - inverse_t
-        centre2 = mu2 * (penalty + nu) - inverse_t
-        return math.sqrt(dual @ dual + centre1 @ centre1 + centre2 @ centre2)
+    def centre(mu, nu, sign, inverse_t):
+        """μ (λ ∓ ν) - 1/t (a new array)."""
+        out = (penalty - nu) if sign > 0 else (penalty + nu)
+        out *= mu
+        out -= inverse_t
+        return out
+
+    def mu_step(mu, nu, dnu, sign, inverse_t):
+        """The Newton step of μ₁ (``sign`` +1) or μ₂ (-1): -(c ∓ μ Δν)/(λ ∓ ν)."""
+        out = centre(mu, nu, sign, inverse_t)
+        moved = mu * dnu
+        if sign > 0:
+            out -= moved
+        else:
+            out += moved
+        del moved
+        np.negative(out, out=out)
+        out /= (penalty - nu) if sign > 0 else (penalty + nu)
+        return out
+
+    def residual_norm(nu, mu1, mu2, inverse_t, move=None):
+        """‖(dual residual, centring residuals)‖ at (ν, μ₁, μ₂); with ``move`` = (step, Δν,
+        the current ν) at (ν, μ + step Δμ), Δμ the Newton step of μ at the current point."""
+        out = gram_less_dx(nu)
+        norms = []
+        for mu, sign in ((mu1, 1), (mu2, -1)):
+            if move is not None:
+                step, dnu, current = move
+                moved = mu_step(mu, current, dnu, sign, inverse_t)
+                moved *= step
+                moved += mu
+            else:
+                moved = mu
+            if sign > 0:
+                out += moved
+            else:
+                out -= moved
+            residual = centre(moved, nu, sign, inverse_t)
+            del moved
+            norms.append(residual @ residual)
+            del residual
+        return math.sqrt(out @ out + norms[0] + norms[1])
 
     nu = np.zeros(m)
     mu1, mu2 = np.ones(m), np.ones(m)
@@ -108,8 +142,16 @@ def _interior_point(x: np.ndarray, penalty: float, count: int):
     history = []
     floor = m * (2**count * penalty) ** 2 * np.finfo(float).eps
     for _ in range(MAX_INTERIOR_ITERATIONS):
-        z, w, gap = _gap(x, nu, penalty, count)
-        primal = 0.5 * float((x - z) @ (x - z)) + penalty * float(np.sum(np.abs(w)))
+        z = x - difference_adjoint(nu, count)  # the primal estimate z = x - Dᵀν, w = Dz
+        w = difference(z, count)
+        terms = np.abs(w)
+        terms *= penalty
+        terms -= nu * w
+        gap = float(np.sum(terms))  # the duality gap Σ(λ|w| - ν w) >= 0
+        del terms
+        z = x - z
+        primal = 0.5 * float(z @ z) + penalty * float(np.sum(np.abs(w)))
+        del z, w
         # (Dz)_i is a difference of numbers of size λ: rounding leaves the gap ~ m (2^c λ)² eps
         history.append(gap)
         target = max(GAP_TOLERANCE * primal, floor)
@@ -117,40 +159,73 @@ def _interior_point(x: np.ndarray, penalty: float, count: int):
             break
         if gap <= 1e3 * target and len(history) > _STALL and gap > 0.5 * history[-1 - _STALL]:
             break  # near the floor and no longer falling: rounding sets the gap now
-        slack1, slack2 = penalty - nu, penalty + nu  # > 0
-        surrogate = float(mu1 @ slack1 + mu2 @ slack2)
+        slack = penalty - nu  # > 0
+        surrogate = float(mu1 @ slack)
+        np.add(penalty, nu, out=slack)  # > 0
+        surrogate += float(mu2 @ slack)
+        del slack
         if step >= 0.2:
             inverse_t = min(surrogate / (_CENTRING * 2 * m), inverse_t / 1.2)
-        dual = gram(nu) - b + mu1 - mu2
-        centre1 = mu1 * slack1 - inverse_t
-        centre2 = mu2 * slack2 - inverse_t
-        system = upper.copy()
-        system[count] = bands[0] + mu1 / slack1 + mu2 / slack2
-        rhs = -dual + centre1 / slack1 - centre2 / slack2
+        # the Newton system: (D Dᵀ + diag(μ₁/(λ-ν) + μ₂/(λ+ν))) Δν = -r + c₁/(λ-ν) - c₂/(λ+ν)
+        rhs = centre(mu1, nu, 1, inverse_t)
+        rhs /= penalty - nu
+        dual = gram_less_dx(nu)  # the dual residual D Dᵀν - Dx + μ₁ - μ₂
+        dual += mu1
+        dual -= mu2
+        rhs -= dual
+        del dual
+        term = centre(mu2, nu, -1, inverse_t)
+        term /= penalty + nu
+        rhs -= term
+        del term
+        system = np.zeros((count + 1, m), order="F")  # upper form, overwritten by its factor
+        for d in range(1, count + 1):
+            system[count - d, d:] = bands[d]
+        np.divide(mu1, penalty - nu, out=system[count])
+        system[count] += bands[0]
+        term = penalty + nu
+        np.divide(mu2, term, out=term)
+        system[count] += term
+        del term
         try:
-            dnu = solveh_banded(system, rhs, check_finite=False)
+            dnu = solveh_banded(system, rhs, overwrite_ab=True, overwrite_b=True,
+                                check_finite=False)  # fmt: skip
         except (LinAlgError, ValueError):
             break
-        dmu1 = -(centre1 - mu1 * dnu) / slack1
-        dmu2 = -(centre2 + mu2 * dnu) / slack2
+        del system, rhs
         step = 1.0
         # the longest step keeping μ > 0 and |ν| < λ, times 0.99
-        for room, change in ((mu1, dmu1), (mu2, dmu2), (slack1, -dnu), (slack2, dnu)):
-            falling = change < 0
-            if falling.any():
-                step = min(step, 0.99 * float(np.min(room[falling] / -change[falling])))
+        step = _longest_step(step, mu1, mu_step(mu1, nu, dnu, 1, inverse_t))
+        step = _longest_step(step, mu2, mu_step(mu2, nu, dnu, -1, inverse_t))
+        step = _longest_step(step, penalty - nu, -dnu)
+        step = _longest_step(step, penalty + nu, dnu)
         before = residual_norm(nu, mu1, mu2, inverse_t)
         for _ in range(_BACKTRACKS):
-            trial = nu + step * dnu
+            trial = dnu * step
+            trial += nu
             if np.all(np.abs(trial) < penalty):
-                after = residual_norm(trial, mu1 + step * dmu1, mu2 + step * dmu2, inverse_t)
+                after = residual_norm(trial, mu1, mu2, inverse_t, (step, dnu, nu))
                 if after <= (1 - 0.01 * step) * before:
                     break
+            trial = None  # freed before the next, shorter, trial
             step *= 0.5
         else:
             break
-        nu, mu1, mu2 = trial, mu1 + step * dmu1, mu2 + step * dmu2
+        for mu, sign in ((mu1, 1), (mu2, -1)):  # μ += step Δμ, Δμ at the current ν
+            change = mu_step(mu, nu, dnu, sign, inverse_t)
+            change *= step
+            mu += change
+            del change
+        nu, trial, dnu = trial, None, None
     return nu
+
+
+def _longest_step(step: float, room: np.ndarray, change: np.ndarray) -> float:
+    """The least of ``step`` and 0.99 times the longest step s keeping room + s change > 0."""
+    falling = change < 0
+    if falling.any():
+        step = min(step, 0.99 * float(np.min(room[falling] / -change[falling])))
+    return step
 
 
 def _active_set_finish(x, nu, penalty, count):
@@ -160,37 +235,53 @@ def _active_set_finish(x, nu, penalty, count):
     changes. If it settles with every free ν_i inside the box (to ``_ACCEPT``), the
     optimality conditions hold to rounding and that ν is returned; otherwise the iterate ν,
     unchanged."""
-    b = difference(x, count)
     bands = _gram_bands(count)
     m = nu.shape[0]
     start, previous = nu, None
     for _ in range(MAX_ACTIVE_SET_ROUNDS):
-        w = b - difference(difference_adjoint(nu, count), count)
+        w = difference(x, count)  # Dz = Dx - D Dᵀν
+        w -= difference(difference_adjoint(nu, count), count)
         scale = penalty / max(float(np.max(np.abs(w))), np.finfo(float).tiny)
-        predicted = nu + scale * w
-        upper, lower = predicted > penalty, predicted < -penalty
+        w *= scale
+        w += nu  # the predicted ν + c·Dz
+        upper, lower = w > penalty, w < -penalty
+        del w
         key = (upper.tobytes(), lower.tobytes())
         if key == previous:
             if np.max(np.abs(nu)) <= penalty * (1 + _ACCEPT):
                 return np.clip(nu, -penalty, penalty)
             return start
         previous = key
+        del nu
         nu = np.zeros(m)
         nu[upper], nu[lower] = penalty, -penalty
-        free = np.flatnonzero(~(upper | lower))
+        upper |= lower
+        del lower
+        free = np.flatnonzero(~upper)
+        del upper
         if free.size:
-            rhs = (b - difference(difference_adjoint(nu, count), count))[free]
-            system = np.zeros((count + 1, free.size))
+            rhs = difference(x, count)
+            rhs -= difference(difference_adjoint(nu, count), count)
+            rhs = rhs[free]
+            system = np.zeros((count + 1, free.size), order="F")
             system[count] = bands[0]
-            for d in range(1, count + 1):
+            for d in range(1, count + 1):  # (D_F D_Fᵀ)_{i,i+d}: the band of their distance
                 steps = free[d:] - free[:-d]
-                system[count - d, d:] = np.where(steps <= count, bands[np.minimum(steps, count)], 0)
+                apart = steps > count
+                np.minimum(steps, count, out=steps)
+                system[count - d, d:] = bands[steps]
+                del steps
+                system[count - d, d:][apart] = 0.0
+                del apart
             try:
-                nu[free] = solveh_banded(system, rhs, check_finite=False)
+                nu[free] = solveh_banded(system, rhs, overwrite_ab=True, overwrite_b=True,
+                                         check_finite=False)  # fmt: skip
             except (LinAlgError, ValueError):
                 return start
+            del system, rhs
             if not np.all(np.isfinite(nu)):
                 return start
+        del free
     return start
 
 
@@ -247,6 +338,7 @@ def trend_filter(x: np.ndarray, penalty: float, tv_order: int) -> np.ndarray:
     limit, fit = fused_penalty(x, tv_order)
     if penalty >= limit:
         return fit
+    del fit
     nu = _interior_point(x, penalty, count)
     nu = _active_set_finish(x, nu, penalty, count)
     return x - difference_adjoint(nu, count)
@@ -302,10 +394,13 @@ def total_variation_derivatives(
     with np.errstate(over="ignore", under="ignore", divide="ignore"):
         # may overflow to inf (then past λ_max: the polynomial) or underflow to 0 (then x)
         lam = float(np.float64(penalty) / np.float64(dt) ** count)
-    smooth = np.empty_like(flat)
-    for channel in range(flat.shape[1]):
-        column = np.ascontiguousarray(flat[:, channel])
-        smooth[:, channel] = trend_filter(column, lam, tv_order)
+    if flat.shape[1] == 1:  # one channel: its trend is the array (no second copy)
+        smooth = trend_filter(np.ascontiguousarray(flat[:, 0]), lam, tv_order)
+    else:
+        smooth = np.empty_like(flat)
+        for channel in range(flat.shape[1]):
+            column = np.ascontiguousarray(flat[:, channel])
+            smooth[:, channel] = trend_filter(column, lam, tv_order)
     values = trend_derivatives(smooth.reshape(x.shape), dt, orders)
     return values
 

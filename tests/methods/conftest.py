@@ -1,5 +1,9 @@
-"""Method instances every contract test runs on: defaults, each preset, and extra settings."""
+"""Method instances every contract test runs on: defaults, each preset, and extra settings;
+the traced peak memory of a call."""
 
+import tracemalloc
+
+import numpy as np
 import pytest
 
 from diffbench import methods
@@ -61,3 +65,25 @@ def method_cases():
         settings += [(f"extra{i}", params) for i, params in enumerate(EXTRA.get(name, []))]
         cases += [pytest.param(name, params, id=f"{name}-{label}") for label, params in settings]
     return cases
+
+
+@pytest.fixture
+def peak_arrays():
+    """``peak_arrays(method, n)``: the peak memory Python allocates during ``method(x, 1e-3)``
+    on a seeded noisy sine of n samples (outputs and temporaries, by tracemalloc), in arrays of
+    n float64. A first call on the same record fills the caches (the end check's probes) and is
+    not counted. The 1 GB target at 1e7 samples is 12.5 arrays."""
+
+    def measure(method, n: int) -> float:
+        rng = np.random.default_rng(0)
+        x = np.sin(2 * np.pi * 4 * np.arange(n) * 1e-3) + 0.01 * rng.standard_normal(n)
+        method(x, 1e-3)
+        tracemalloc.start()
+        try:
+            method(x, 1e-3)
+            _, peak = tracemalloc.get_traced_memory()
+        finally:
+            tracemalloc.stop()
+        return peak / (8 * n)
+
+    return measure

@@ -186,3 +186,11 @@ def test_records_shorter_than_k_plus_2_are_refused(tv_order, shortest):
     with pytest.raises(ValueError, match=rf"`x` has {shortest - 1} samples .* {shortest}"):
         method(np.arange(shortest - 1.0), 1e-3)
     assert np.isfinite(method(np.arange(float(shortest)) ** 2, 1e-3)[2]).all()
+
+
+def test_the_method_holds_fewer_than_eleven_record_length_arrays(peak_arrays):
+    # outputs (three) and temporaries: the interior-point iteration holds ν, μ₁, μ₂, the
+    # Newton step and the band of its solve (the version that kept its slacks, Dx and the
+    # steps of μ held 31); the 1 GB target at 1e7 samples is 12.5
+    method = methods.preset("total_variation", "paper-signal")
+    assert peak_arrays(method, 100_000) < 11
