@@ -19,6 +19,7 @@ dense factorisations.
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 
@@ -342,7 +343,6 @@ def fit_hyperparameters(x, dt: float, fit_samples: int = 400) -> tuple[float, fl
     """
     from sklearn.exceptions import ConvergenceWarning  # lazy: scikit-learn imports slowly
     from sklearn.gaussian_process import GaussianProcessRegressor
-    from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
     from threadpoolctl import threadpool_limits  # a dependency of scikit-learn
 
     x = np.asarray(x, dtype=float)
@@ -354,9 +354,8 @@ def fit_hyperparameters(x, dt: float, fit_samples: int = 400) -> tuple[float, fl
         return None
     samples = _fit_samples(n, fit_samples)
     span = max(2 * dt, (n - 1) * dt)
-    kernel = ConstantKernel(1.0, (1e-2, 1e2)) * RBF(
-        min(10 * dt, span / 2), (dt, span)
-    ) + WhiteKernel(0.1, (1e-8, 10.0))
+    kernel = scaled_rbf_plus_noise_kernel()(1.0, (1e-2, 1e2), min(10 * dt, span / 2), (dt, span),
+                                            0.1, (1e-8, 10.0))  # fmt: skip
     regressor = GaussianProcessRegressor(
         kernel=kernel, alpha=1e-10, n_restarts_optimizer=FIT_RESTARTS, random_state=0
     )
@@ -369,12 +368,91 @@ def fit_hyperparameters(x, dt: float, fit_samples: int = 400) -> tuple[float, fl
         warnings.simplefilter("ignore", ConvergenceWarning)
         regressor.fit((samples * dt)[:, None], residual[samples] / scale)
     fitted = regressor.kernel_
-    signal_variance = fitted.k1.k1.constant_value
-    length_scale_s = float(fitted.k1.k2.length_scale)
-    noise_variance = fitted.k2.noise_level
+    signal_variance = fitted.constant_value
+    length_scale_s = float(fitted.length_scale)
+    noise_variance = fitted.noise_level
     ratio = float(np.clip(math.sqrt(noise_variance / signal_variance), MIN_NOISE_RATIO,
                           MAX_NOISE_RATIO))  # fmt: skip
     return length_scale_s, ratio, math.sqrt(noise_variance) * scale
+
+
+@functools.cache
+def scaled_rbf_plus_noise_kernel():
+    r"""scikit-learn's ``ConstantKernel * RBF + WhiteKernel`` as one kernel class, built on
+    first use (scikit-learn imports slowly).
+
+    .. math:: k(t, t') = \sigma_f^2 \exp\left(-\frac{(t - t')^2}{2\ell^2}\right)
+        + \sigma_n^2 \delta_{tt'}
+
+    Its matrix and its gradient in (log σ_f², log ℓ, log σ_n²) are the composite kernel's,
+    bit for bit (the same operations in the same order; tested against it), and so are its
+    ``theta`` and ``bounds``: the likelihood fit takes the same path. The composite builds
+    each factor's full matrices and gradients and stacks them (``np.full``, ``np.eye``,
+    ``np.dstack``): about half of each likelihood evaluation at 400 samples; this one computes
+    the distances and the exponential once and writes the gradient in place.
+    """
+    from scipy.spatial.distance import cdist, pdist, squareform
+    from sklearn.gaussian_process.kernels import Hyperparameter, Kernel
+
+    class ScaledRbfPlusNoise(Kernel):
+        def __init__(self, constant_value=1.0, constant_value_bounds=(1e-5, 1e5),
+                     length_scale=1.0, length_scale_bounds=(1e-5, 1e5), noise_level=1.0,
+                     noise_level_bounds=(1e-5, 1e5)):  # fmt: skip
+            self.constant_value = constant_value
+            self.constant_value_bounds = constant_value_bounds
+            self.length_scale = length_scale
+            self.length_scale_bounds = length_scale_bounds
+            self.noise_level = noise_level
+            self.noise_level_bounds = noise_level_bounds
+
+        # theta is (log σ_f², log ℓ, log σ_n²): scikit-learn orders them by name, as the
+        # composite kernel's three factors
+        @property
+        def hyperparameter_constant_value(self):
+            return Hyperparameter("constant_value", "numeric", self.constant_value_bounds)
+
+        @property
+        def hyperparameter_length_scale(self):
+            return Hyperparameter("length_scale", "numeric", self.length_scale_bounds)
+
+        @property
+        def hyperparameter_noise_level(self):
+            return Hyperparameter("noise_level", "numeric", self.noise_level_bounds)
+
+        def __call__(self, X, Y=None, eval_gradient=False):
+            X = np.atleast_2d(X)
+            scale = np.squeeze(float(self.length_scale)).astype(float)
+            if Y is not None:
+                if eval_gradient:
+                    raise ValueError("Gradient can only be evaluated when Y is None.")
+                distances = cdist(X / scale, np.atleast_2d(Y) / scale, metric="sqeuclidean")
+                return self.constant_value * np.exp(-0.5 * distances)
+            distances = pdist(X / scale, metric="sqeuclidean")
+            rbf = squareform(np.exp(-0.5 * distances))
+            np.fill_diagonal(rbf, 1)
+            n = X.shape[0]
+            diagonal = np.diag_indices(n)
+            if not eval_gradient:
+                matrix = self.constant_value * rbf
+                matrix[diagonal] += self.noise_level
+                return matrix
+            gradient = np.zeros((n, n, 3))
+            np.multiply(rbf, self.constant_value, out=gradient[:, :, 0])
+            squared = squareform(distances)
+            squared *= rbf  # the RBF's own gradient in log ℓ
+            np.multiply(squared, self.constant_value, out=gradient[:, :, 1])
+            gradient[:, :, 2][diagonal] = self.noise_level
+            matrix = gradient[:, :, 0].copy()
+            matrix[diagonal] += self.noise_level
+            return matrix, gradient
+
+        def diag(self, X):
+            return np.full(np.atleast_2d(X).shape[0], self.constant_value + self.noise_level)
+
+        def is_stationary(self):
+            return True
+
+    return ScaledRbfPlusNoise
 
 
 def _fit_samples(n: int, most: int) -> np.ndarray:

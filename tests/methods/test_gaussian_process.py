@@ -2,11 +2,13 @@
 differences, a dense numpy posterior, sinusoids through the stated response, analytic
 derivatives of a smooth signal, the noise level of synthetic data, and the inputs refused."""
 
+import warnings
+
 import numpy as np
 import pytest
 from scipy.sparse.linalg import LinearOperator, cg
 from sklearn.gaussian_process import GaussianProcessRegressor
-from sklearn.gaussian_process.kernels import RBF
+from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
 
 from diffbench import methods
 from diffbench.methods.gaussian_process import (
@@ -15,6 +17,7 @@ from diffbench.methods.gaussian_process import (
     gaussian_process_response,
     posterior_derivatives,
     rbf_covariance,
+    scaled_rbf_plus_noise_kernel,
 )
 
 DT = 1e-3
@@ -227,6 +230,49 @@ def test_the_marginal_likelihood_recovers_a_known_noise_level_and_length_scale()
     assert noise_std == pytest.approx(0.1, rel=0.15)
     assert length_scale_s == pytest.approx(0.02, rel=0.3)
     assert ratio == pytest.approx(noise_std / np.std(x), rel=0.5)
+
+
+@pytest.mark.parametrize(
+    ("signal_variance", "length_scale_s", "noise_variance"),
+    [(1.0, 0.01, 0.1), (3.7, 0.2, 1e-6), (0.02, 0.001, 5.0)],
+)
+def test_the_fused_kernel_is_scikit_learns_composite_bit_for_bit(
+    signal_variance, length_scale_s, noise_variance
+):
+    # ConstantKernel * RBF + WhiteKernel: matrix, gradient, theta, bounds and cross-matrix
+    bounds = ((1e-2, 1e2), (1e-3, 1.0), (1e-8, 10.0))
+    composite = (ConstantKernel(signal_variance, bounds[0]) * RBF(length_scale_s, bounds[1])
+                 + WhiteKernel(noise_variance, bounds[2]))  # fmt: skip
+    fused = scaled_rbf_plus_noise_kernel()(signal_variance, bounds[0], length_scale_s,
+                                           bounds[1], noise_variance, bounds[2])  # fmt: skip
+    t = np.sort(np.random.default_rng(0).uniform(0.0, 1.0, 300))[:, None]
+    for theirs, ours in zip(composite(t, eval_gradient=True), fused(t, eval_gradient=True),
+                            strict=True):  # fmt: skip
+        assert ours.shape == theirs.shape
+        assert np.array_equal(ours, theirs)
+    assert np.array_equal(fused(t), composite(t))
+    assert np.array_equal(fused(t, t[::7]), composite(t, t[::7]))
+    assert np.array_equal(fused.diag(t), composite.diag(t))
+    assert np.array_equal(fused.theta, composite.theta)
+    assert np.array_equal(fused.bounds, composite.bounds)
+
+
+def test_the_likelihood_fit_with_the_fused_kernel_is_scikit_learns_bit_for_bit():
+    rng = np.random.default_rng(7)
+    t = np.arange(400) * DT
+    y = np.sin(2 * np.pi * 4 * t) + 0.3 * np.sin(2 * np.pi * 9 * t)
+    y += 0.05 * rng.standard_normal(t.size)
+    start = (1.0, (1e-2, 1e2), 10 * DT, (DT, 0.4), 0.1, (1e-8, 10.0))
+    fits = []
+    for kernel in (ConstantKernel(*start[:2]) * RBF(*start[2:4]) + WhiteKernel(*start[4:]),
+                   scaled_rbf_plus_noise_kernel()(*start)):  # fmt: skip
+        regressor = GaussianProcessRegressor(kernel, alpha=1e-10, n_restarts_optimizer=1,
+                                             random_state=0)  # fmt: skip
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            fits.append(regressor.fit(t[:, None], y / np.std(y)))
+    assert np.array_equal(fits[0].kernel_.theta, fits[1].kernel_.theta)
+    assert fits[0].log_marginal_likelihood_value_ == fits[1].log_marginal_likelihood_value_
 
 
 def test_the_data_only_method_is_accurate_on_the_paper_signal_and_a_line_is_a_line():
