@@ -544,6 +544,8 @@ def _run_cells(cells, store: Store, args) -> runner.RunSummary:
 
 def _say(summary: runner.RunSummary) -> None:
     text = f"{summary.computed} cells computed, {summary.skipped} already stored"
+    if summary.reused:
+        text += f", {summary.reused} the same computation as another cell (its scores taken)"
     if summary.stored_by_others:
         text += f", {summary.stored_by_others} stored meanwhile by another writer"
     print(text)

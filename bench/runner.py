@@ -3,7 +3,9 @@
 A cell is one method with one parameter set (and the role of that set: a preset, tuned, a
 variant) on one task for one seed. A cell's numbers depend only on (task, method, parameters,
 seed), so the same seed gives bit-identical numbers, and an interrupted run resumes by
-computing only the cells the store does not hold. The runner never asks what kind of task it
+computing only the cells the store does not hold. Two cells that differ only in their role
+(a tuning that lands on the preset, ẋ and ẍ tuned to the same setting) are one computation:
+it runs once and both are stored with its scores. The runner never asks what kind of task it
 holds: the task scores the method (:meth:`bench.tasks.Task.score`).
 """
 
@@ -19,7 +21,7 @@ from diffbench import methods
 from diffbench.bench import tuning
 from diffbench.bench.executor import ordered_map
 from diffbench.bench.roles import Role
-from diffbench.bench.store import Store, canonical, cell_key
+from diffbench.bench.store import Store, canonical, cell_key, computation_key
 
 
 @dataclass(frozen=True, eq=False)
@@ -36,6 +38,13 @@ class Cell:
     @property
     def key(self) -> str:
         return cell_key(self.task, self.method, self.params, self.seed, self.role.as_dict())
+
+    @property
+    def computation(self) -> str:
+        """What the cell computes (:func:`bench.store.computation_key`): its key less the
+        role's provenance."""
+        return computation_key(self.task, self.method, self.params, self.seed,
+                               self.role.as_dict())  # fmt: skip
 
     def __eq__(self, other: object) -> bool:
         return isinstance(other, Cell) and self.key == other.key
@@ -87,12 +96,14 @@ def _timed(cell: Cell) -> tuple[list[dict[str, Any]], float]:
 @dataclass
 class RunSummary:
     """What a call of :func:`run` did: cells asked for, found stored, computed and stored,
-    and computed but stored first by another writer (so not stored again)."""
+    computed but stored first by another writer (so not stored again), and stored with the
+    scores of the same computation (:attr:`Cell.computation`) done for another cell."""
 
     total: int
     skipped: int
     computed: int
     stored_by_others: int = 0
+    reused: int = 0
 
 
 def run(
@@ -103,36 +114,60 @@ def run(
 ) -> RunSummary:
     """Compute every cell the store lacks and store each one as soon as it is finished.
 
-    Duplicate cells are computed once. ``progress`` wraps the iterable of pending results (e.g.
-    a tqdm bar). With ``jobs`` > 1 the cells are computed on that many local processes
-    (:func:`bench.executor.ordered_map`); this process alone writes the store. An exception or
-    interruption leaves every finished cell stored.
+    Duplicate cells are computed once, and so are cells that differ only in their role (the
+    same :attr:`Cell.computation`): the others are stored with its scores (``same_as`` its
+    key), also when the store holds that computation from an earlier run of this very code
+    (:meth:`bench.store.Store.computed_by_this_code`). ``progress`` wraps the iterable of
+    pending results (e.g. a tqdm bar). With ``jobs`` > 1 the cells are computed on that many
+    local processes (:func:`bench.executor.ordered_map`); this process alone writes the store.
+    An exception or interruption leaves every finished cell stored.
     """
     cells = unique(cells)
     store.refresh()
     pending = [cell for cell in cells if not store.has_cell(cell.key)]
-    results = ordered_map(_timed, pending, jobs)
-    paired = zip(pending, results, strict=True)
-    iterable = progress(paired, len(pending)) if progress else paired
+    twins: dict[str, list[Cell]] = {}
+    for cell in pending:
+        twins.setdefault(cell.computation, []).append(cell)
+    done = store.computed_by_this_code()
+    reused = 0
+    for computation, group in twins.items():
+        if computation in done:
+            source = done[computation]
+            scores = [dict(zip(("order", "region", "metric", "value"), score, strict=True))
+                      for score in source["scores"]]  # fmt: skip
+            reused += sum(_store(store, cell, scores, source["elapsed_s"], source["key"])
+                          for cell in group)  # fmt: skip
+    todo = [group[0] for computation, group in twins.items() if computation not in done]
+    results = ordered_map(_timed, todo, jobs)
+    paired = zip(todo, results, strict=True)
+    iterable = progress(paired, len(todo)) if progress else paired
     computed = others = 0
     for cell, (scores, elapsed) in iterable:
-        stored = store.add_cell(
-            task=cell.task,
-            method=cell.method,
-            params=cell.params,
-            seed=cell.seed,
-            role=cell.role.as_dict(),
-            scores=scores,
-            elapsed_s=elapsed,
-            package=methods.package_of(cell.method),
-        )
+        stored = _store(store, cell, scores, elapsed)
         computed += stored
         others += not stored
+        for twin in twins[cell.computation][1:]:
+            reused += _store(store, twin, scores, elapsed, cell.key)
     return RunSummary(
         total=len(cells),
         skipped=len(cells) - len(pending),
         computed=computed,
         stored_by_others=others,
+        reused=reused,
+    )
+
+
+def _store(store: Store, cell: Cell, scores, elapsed: float, same_as: str | None = None) -> bool:
+    return store.add_cell(
+        task=cell.task,
+        method=cell.method,
+        params=cell.params,
+        seed=cell.seed,
+        role=cell.role.as_dict(),
+        scores=scores,
+        elapsed_s=elapsed,
+        package=methods.package_of(cell.method),
+        same_as=same_as,
     )
 
 

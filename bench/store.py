@@ -309,6 +309,15 @@ def cell_key(task: str, method: str, params: Mapping[str, Any], seed: int,
     return canonical([task, method, dict(params), int(seed), dict(role)])
 
 
+def computation_key(task: str, method: str, params: Mapping[str, Any], seed: int,
+                    role: Mapping[str, Any]) -> str:  # fmt: skip
+    """What a cell computes: its key without the role, which is provenance (a preset, a
+    tuning), except for the role's ``variant``, which can change what a task computes
+    (:meth:`bench.tasks.Task.score_cell`). Cells with equal computation keys have equal
+    scores, bit for bit, when the same code computes them."""
+    return canonical([task, method, dict(params), int(seed), dict(role).get("variant", "")])
+
+
 def _check_cell(record: dict) -> None:
     for name, kind in (("task", str), ("method", str), ("params", dict), ("role", dict),
                        ("scores", list)):  # fmt: skip
@@ -401,9 +410,12 @@ class Store:
 
     def add_cell(self, *, task: str, method: str, params: Mapping[str, Any], seed: int,
                  role: Mapping[str, Any], scores: list[dict[str, Any]],
-                 elapsed_s: float, package: str = "unknown") -> bool:  # fmt: skip
+                 elapsed_s: float, package: str = "unknown",
+                 same_as: str | None = None) -> bool:  # fmt: skip
         """Store one finished cell; False if another writer stored it first. ``package``: the
-        distribution and version whose code computed it (``methods.package_of``)."""
+        distribution and version whose code computed it (``methods.package_of``).
+        ``same_as``: the key of the cell whose computation this one's scores are (the same
+        computation key, see :func:`computation_key`; its ``elapsed_s`` is that one's)."""
         key = cell_key(task, method, params, seed, role)
         record = {
             "key": key, "task": task, "method": method, "params": dict(params),
@@ -412,7 +424,26 @@ class Store:
             "scores": [[int(s["order"]), str(s["region"]), str(s["metric"]),
                         _number(s["value"])] for s in scores],
         }  # fmt: skip
+        if same_as is not None:
+            record["same_as"] = str(same_as)
         return self.cells.append(record)
+
+    def computed_by_this_code(self) -> dict[str, dict]:
+        """The stored cells whose run had this process's provenance (the same clean git
+        revision and the same package versions and BLAS kernel), by computation key
+        (:func:`computation_key`): their scores are what this code would compute. Empty when
+        the working tree is dirty or not a git checkout (its code cannot be named)."""
+        current = provenance()
+        if current["git_rev"] in ("", "unknown") or current["git_rev"].endswith("+dirty"):
+            return {}
+        runs = {run for run, meta in self.cells.runs.items()
+                if meta.get("git_rev") == current["git_rev"]
+                and meta.get("versions") == current["versions"]}  # fmt: skip
+        return {
+            computation_key(r["task"], r["method"], r["params"], r["seed"], r["role"]): r
+            for r in self.cells.records.values()
+            if r["run"] in runs
+        }
 
     def find_tuning(self, **fields: Any) -> dict | None:
         return self.tunings.records.get(tuning_key(**fields))

@@ -12,6 +12,8 @@ import numpy as np
 import pytest
 
 from diffbench.bench import runner, tables
+from diffbench.bench import store as store_module
+from diffbench.bench.roles import Role
 from diffbench.bench.store import Store
 from diffbench.bench.tasks import available_tasks, get_task
 
@@ -65,6 +67,63 @@ def test_rerun_computes_nothing_and_duplicates_are_computed_once(tmp_path):
     again = runner.run(_cells(), store)
     assert (again.computed, again.skipped) == (0, 6)
     assert len(Store(tmp_path / "s").cells.records) == 6
+
+
+def _retuned(cells, order=1):
+    """The same cells in a tuned role (as if a tuning had landed on their parameters)."""
+    role = Role.tuned("oracle", order, 10000)
+    return [runner.Cell(c.task, c.method, dict(c.params), c.seed, role) for c in cells]
+
+
+def _by_key(store: Store) -> dict:
+    return dict(Store(store.directory).cells.records)
+
+
+def test_cells_that_differ_only_in_their_role_are_computed_once(tmp_path):
+    store = Store(tmp_path / "s")
+    presets = _cells(seeds=2)
+    summary = runner.run(presets + _retuned(presets) + _retuned(presets, 2), store)
+    assert (summary.total, summary.computed, summary.reused) == (12, 4, 8)
+    records = _by_key(store)
+    assert len(records) == 12
+    for cell in presets:
+        computed = records[cell.key]
+        assert "same_as" not in computed
+        assert computed["scores"] == [[r["order"], r["region"], r["metric"], r["value"]]
+                                      for r in runner.compute_cell(cell)]  # fmt: skip
+        for order in (1, 2):
+            (twin,) = _retuned([cell], order)
+            assert records[twin.key]["scores"] == computed["scores"]
+            assert records[twin.key]["same_as"] == cell.key
+            assert records[twin.key]["elapsed_s"] == computed["elapsed_s"]
+
+
+def test_a_later_run_takes_a_computation_stored_by_the_same_code_only(tmp_path, monkeypatch):
+    revision = {"git_rev": "0123abc", "versions": "numpy=2"}
+    monkeypatch.setattr(store_module, "provenance", lambda: dict(revision))
+    store = Store(tmp_path / "s")
+    presets = _cells(seeds=2)
+    runner.run(presets, store)
+    again = runner.run(_retuned(presets), store)
+    assert (again.computed, again.reused) == (0, 4)
+    assert {_by_key(store)[c.key]["same_as"] for c in _retuned(presets)} == {c.key for c in presets}
+    # other code (another revision, other versions, an uncommitted change): computed anew
+    changes = ({"git_rev": "4567def"}, {"versions": "numpy=3"}, {"git_rev": "0123abc+dirty"})
+    for index, changed in enumerate(changes):
+        revision.update({"git_rev": "0123abc", "versions": "numpy=2", **changed})
+        role = Role.tuned("oracle", 1, 20000 + index)  # a role not stored yet
+        cells = [runner.Cell(c.task, c.method, dict(c.params), c.seed, role) for c in presets]
+        summary = runner.run(cells, store)
+        assert (summary.computed, summary.reused) == (4, 0), changed
+
+
+def test_a_variant_is_a_different_computation_from_its_base():
+    (cell,) = _cells(seeds=1, names=("finite_difference",))
+    variant = runner.Cell(cell.task, cell.method, dict(cell.params), cell.seed,
+                          Role(origin="variant", preset="paper-signal", by="diffbench",
+                               variant="nested"))  # fmt: skip
+    assert variant.computation != cell.computation
+    assert _retuned([cell])[0].computation == cell.computation
 
 
 def test_interrupted_run_keeps_finished_cells_and_resumes_to_the_same_table(tmp_path):
