@@ -128,7 +128,7 @@ def run(
     twins: dict[str, list[Cell]] = {}
     for cell in pending:
         twins.setdefault(cell.computation, []).append(cell)
-    done = store.computed_by_this_code()
+    done = store.computed_by_this_code() if pending else {}
     reused = 0
     for computation, group in twins.items():
         if computation in done:
