@@ -521,7 +521,9 @@ FRAME_COLUMNS = (*_FIXED, "order", "region", "metric", "value")
 
 
 def _number(value: Any) -> float | None:
-    """The value as a float, None for NaN (stored as JSON null)."""
+    """The value as a float, None for NaN (stored as JSON null; a stored null stays null)."""
+    if value is None:
+        return None
     number = float(value)
     if number != number:
         return None

@@ -117,6 +117,23 @@ def test_a_later_run_takes_a_computation_stored_by_the_same_code_only(tmp_path, 
         assert (summary.computed, summary.reused) == (4, 0), changed
 
 
+def test_a_stored_computation_with_a_nan_score_is_taken_as_nan(tmp_path, monkeypatch):
+    # NaN is stored as null; a cell taking that computation's scores stores null again
+    monkeypatch.setattr(store_module, "provenance",
+                        lambda: {"git_rev": "0123abc", "versions": "numpy=2"})  # fmt: skip
+    (cell,) = _cells(seeds=1, names=("finite_difference",))
+    scores = runner.compute_cell(cell)
+    scores[0] = {**scores[0], "value": float("nan")}
+    store = Store(tmp_path / "s")
+    store.add_cell(task=cell.task, method=cell.method, params=cell.params, seed=cell.seed,
+                   role=cell.role.as_dict(), scores=scores, elapsed_s=0.1)  # fmt: skip
+    summary = runner.run(_retuned([cell]), store)
+    assert (summary.computed, summary.reused) == (0, 1)
+    taken = _by_key(store)[_retuned([cell])[0].key]["scores"]
+    assert taken[0][3] is None
+    assert taken[1:] == _by_key(store)[cell.key]["scores"][1:]
+
+
 def test_a_variant_is_a_different_computation_from_its_base():
     (cell,) = _cells(seeds=1, names=("finite_difference",))
     variant = runner.Cell(cell.task, cell.method, dict(cell.params), cell.seed,
