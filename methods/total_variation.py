@@ -93,9 +93,13 @@ def _interior_point(x: np.ndarray, penalty: float, count: int):
         out -= difference(x, count)
         return out
 
+    def slack(nu, sign):
+        """λ - ν (``sign`` +1) or λ + ν (-1): the room to the box (a new array, > 0)."""
+        return (penalty - nu) if sign > 0 else (penalty + nu)
+
     def centre(mu, nu, sign, inverse_t):
         """μ (λ ∓ ν) - 1/t (a new array)."""
-        out = (penalty - nu) if sign > 0 else (penalty + nu)
+        out = slack(nu, sign)
         out *= mu
         out -= inverse_t
         return out
@@ -110,7 +114,7 @@ def _interior_point(x: np.ndarray, penalty: float, count: int):
             out += moved
         del moved
         np.negative(out, out=out)
-        out /= (penalty - nu) if sign > 0 else (penalty + nu)
+        out /= slack(nu, sign)
         return out
 
     def residual_norm(nu, mu1, mu2, inverse_t, move=None):
@@ -159,31 +163,27 @@ def _interior_point(x: np.ndarray, penalty: float, count: int):
             break
         if gap <= 1e3 * target and len(history) > _STALL and gap > 0.5 * history[-1 - _STALL]:
             break  # near the floor and no longer falling: rounding sets the gap now
-        slack = penalty - nu  # > 0
-        surrogate = float(mu1 @ slack)
-        np.add(penalty, nu, out=slack)  # > 0
-        surrogate += float(mu2 @ slack)
-        del slack
+        surrogate = float(mu1 @ slack(nu, 1)) + float(mu2 @ slack(nu, -1))
         if step >= 0.2:
             inverse_t = min(surrogate / (_CENTRING * 2 * m), inverse_t / 1.2)
         # the Newton system: (D Dᵀ + diag(μ₁/(λ-ν) + μ₂/(λ+ν))) Δν = -r + c₁/(λ-ν) - c₂/(λ+ν)
         rhs = centre(mu1, nu, 1, inverse_t)
-        rhs /= penalty - nu
+        rhs /= slack(nu, 1)
         dual = gram_less_dx(nu)  # the dual residual D Dᵀν - Dx + μ₁ - μ₂
         dual += mu1
         dual -= mu2
         rhs -= dual
         del dual
         term = centre(mu2, nu, -1, inverse_t)
-        term /= penalty + nu
+        term /= slack(nu, -1)
         rhs -= term
         del term
         system = np.zeros((count + 1, m), order="F")  # upper form, overwritten by its factor
         for d in range(1, count + 1):
             system[count - d, d:] = bands[d]
-        np.divide(mu1, penalty - nu, out=system[count])
+        np.divide(mu1, slack(nu, 1), out=system[count])
         system[count] += bands[0]
-        term = penalty + nu
+        term = slack(nu, -1)
         np.divide(mu2, term, out=term)
         system[count] += term
         del term
@@ -197,8 +197,8 @@ def _interior_point(x: np.ndarray, penalty: float, count: int):
         # the longest step keeping μ > 0 and |ν| < λ, times 0.99
         step = _longest_step(step, mu1, mu_step(mu1, nu, dnu, 1, inverse_t))
         step = _longest_step(step, mu2, mu_step(mu2, nu, dnu, -1, inverse_t))
-        step = _longest_step(step, penalty - nu, -dnu)
-        step = _longest_step(step, penalty + nu, dnu)
+        step = _longest_step(step, slack(nu, 1), -dnu)
+        step = _longest_step(step, slack(nu, -1), dnu)
         before = residual_norm(nu, mu1, mu2, inverse_t)
         for _ in range(_BACKTRACKS):
             trial = dnu * step
