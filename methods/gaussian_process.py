@@ -421,7 +421,7 @@ def scaled_rbf_plus_noise_kernel():
 
         def __call__(self, X, Y=None, eval_gradient=False):
             X = np.atleast_2d(X)
-            scale = np.squeeze(float(self.length_scale)).astype(float)
+            scale = float(self.length_scale)
             if Y is not None:
                 if eval_gradient:
                     raise ValueError("Gradient can only be evaluated when Y is None.")
