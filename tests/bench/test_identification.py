@@ -95,6 +95,42 @@ def test_robot_derivative_errors_on_the_interior_and_on_the_whole_record(scenari
         assert valid[inside].all()
 
 
+def test_each_method_differentiates_a_robot_record_once_and_the_scores_are_unchanged(
+    scenario, monkeypatch
+):
+    """The measured q is the same for every noise seed: the second seed's cell takes the first
+    one's estimate; its scores equal those computed afresh, and another record is another
+    estimate."""
+    method = methods.preset("savitzky_golay", "robot")
+    calls = []
+    monkeypatch.setattr(robot, "_estimates", robot.OrderedDict())
+    original = type(method).__call__
+
+    def counted(self, *args, **kwargs):
+        calls.append(self.name)
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(type(method), "__call__", counted)
+    first = robot.score_identification(method, scenario, 0)
+    second = robot.score_identification(method, scenario, 1)
+    assert len(calls) == 1
+    robot._estimates.clear()
+    assert robot.score_identification(method, scenario, 1) == second
+    assert len(calls) == 2 and second != first  # the torques' noise differs between seeds
+
+    realisation = scenario.realise(0)
+    kept = robot.estimate_of(method, realisation.q, realisation.dt_s)
+    assert robot.estimate_of(method, realisation.q.copy(), realisation.dt_s) is kept
+    with pytest.raises(ValueError, match="read-only"):
+        kept[1][0, 0] = 0.0
+    shifted = realisation.q.copy()
+    shifted[100, 0] += scenario.encoder_step_rad
+    assert robot.estimate_of(method, shifted, realisation.dt_s) is not kept
+    other = methods.preset("butterworth", "robot")
+    assert robot.estimate_of(other, realisation.q, realisation.dt_s) is not kept
+    assert len(calls) == 3  # the shifted record (butterworth is another class)
+
+
 def test_well_excited_set_leaves_out_the_poorly_identified_parameters(scenario):
     mask = dict(zip(NAMES, robot.well_excited(scenario), strict=True))
     assert mask["ZZ1R"] and mask["FC1"] and not mask["MY2"]
