@@ -318,11 +318,17 @@ def tune(
     scale = (float(np.sqrt(np.mean(first.truth[order][scored[0]] ** 2)))
              if criterion == "oracle" else None)  # fmt: skip
 
+    # the first and last sample each loss reads (the ends check is skipped when it cannot
+    # reach them: the same losses, bit for bit, see Method.estimate_within)
+    reads = [(int(np.argmax(inside)), int(inside.size - 1 - np.argmax(inside[::-1])))
+             for inside in scored]  # fmt: skip
+
     def loss_on(k: int, params: dict[str, Any]) -> float:
         """The loss of ``params`` on realisation ``k``."""
         x, inside = samples[k], scored[k]
         try:
-            estimate = estimate_on(cls(**params), realisations[k], x, orders=(order,))
+            estimate = estimate_on(cls(**params), realisations[k], x, orders=(order,),
+                                   reads=reads[k])  # fmt: skip
         except ValueError:
             return math.inf
         if not estimate.valid[order][inside].all():

@@ -371,18 +371,35 @@ class Method:
             return False
         return True
 
-    def _uniform(self, x, dt: float, orders) -> Estimate:
+    def estimate_within(self, x, dt: float, orders, first: int, last: int) -> Estimate:
+        """``self(x, dt, orders)`` for a caller that reads samples ``first`` to ``last``
+        (inclusive) only, such as a tuner's loss on a record's interior.
+
+        The ends check (:func:`~diffbench.methods._ends.trusted_samples`) can mask only the
+        first and last ``end_reach(dt)`` samples of a record longer than its probe (``max(2
+        reach + 1, min_samples)`` samples); when samples ``first..last`` lie beyond both, it
+        is skipped: their values and validity are those of the full call, bit for bit, and
+        the samples outside them come back unchecked (marked valid where finite). Otherwise,
+        and for irregular records, this is the full call."""
+        return self._uniform(x, dt, orders, reads=(int(first), int(last)))
+
+    def _uniform(self, x, dt: float, orders, reads: tuple[int, int] | None = None) -> Estimate:
         orders = check_orders(orders)
         dt = check_dt(dt)
         adapted = self.at_step(dt)
         if adapted is not self:
-            return adapted._uniform(x, dt, orders)
+            return adapted._uniform(x, dt, orders, reads)
         # the signal's length first: it is cheap, and check_step may build taps
         x, dt = check_signal(x, dt, min_samples=self.min_samples(dt))
-        self._check_longest(x.shape[0], dt)
+        n = x.shape[0]
+        self._check_longest(n, dt)
         self.check_step(dt)
         values, valid = self._estimate(x, dt, orders)
         reach = self.end_reach(dt) if self.linear else None
+        if reach and reads is not None:
+            probe = max(2 * reach + 1, self.min_samples(dt))
+            if n > probe and reach <= reads[0] <= reads[1] < n - reach:
+                reach = None  # the check cannot reach the samples read
         if reach:
             trusted = trusted_samples(self, x.shape[0], dt, orders)
             for order in orders:

@@ -413,3 +413,16 @@ def test_a_choice_declared_untuned_is_left_at_its_value():
     # a choice with no reason given is searched (kalman's model order)
     kalman = {d.name: d for d in tuning.search_space("kalman", 1e-3, 2501)}
     assert kalman["model_order"].kind == "choice" and len(kalman["model_order"].choices) > 1
+
+
+@pytest.mark.parametrize("name", ["savitzky_golay", "butterworth"])
+def test_the_tuner_skipping_the_ends_check_tunes_as_the_full_calls_do(name, monkeypatch):
+    """The loss reads the interior only: where the ends check cannot reach it the tuner skips
+    it (Method.estimate_within); the tuning is the same as with every full call."""
+    realisation = signals.get_scenario("paper-signal").realise(2)
+    skipping = tuning.tune(name, realisation, 1, "oracle", max_evaluations=60)
+    monkeypatch.setattr(Method, "estimate_within",
+                        lambda self, x, dt, orders, first, last: self(x, dt, orders))  # fmt: skip
+    full = tuning.tune(name, realisation, 1, "oracle", max_evaluations=60)
+    assert (skipping.params, skipping.loss, skipping.evaluations) == (
+        full.params, full.loss, full.evaluations)  # fmt: skip

@@ -168,3 +168,53 @@ def test_gaussian_process_ml_masks_a_sample_unless_every_channel_trusts_it():
         np.testing.assert_allclose(
             both[1][expected, index], single[1][expected], rtol=0, atol=1e-9 * 2 * np.pi * 12
         )
+
+
+@pytest.mark.parametrize(("name", "params"), method_cases())
+def test_an_estimate_read_beyond_the_ends_is_the_full_estimate_there(name, params):
+    """``estimate_within`` skips the ends check only where it cannot reach the samples read:
+    those come out as the full call's, bit for bit, and reads that reach an end get the full
+    call (its masks included)."""
+    method = methods.get(name, **params)
+    reach = method.end_reach(DT) if method.linear else None
+    if not reach:
+        pytest.skip(f"{name} has no ends check")
+    n = max(2 * reach + 301, method.min_samples(DT) + 1)
+    t = np.arange(n) * DT
+    x = np.sin(2 * np.pi * 3 * t) + 0.05 * np.random.default_rng(3).standard_normal(n)
+    full = method(x, DT)
+    first, last = reach, n - 1 - reach
+    if first > last:
+        pytest.skip(f"{name}'s probe is longer than {n} samples")
+    read = method.estimate_within(x, DT, (0, 1, 2), first, last)
+    for order in (0, 1, 2):
+        inside = slice(first, last + 1)
+        assert np.array_equal(read[order][inside], full[order][inside], equal_nan=True)
+        assert np.array_equal(read.valid[order][inside], full.valid[order][inside])
+    # one sample nearer an end: the check runs, and the result is the full call's
+    for reads in ((first - 1, last), (first, last + 1)):
+        near = method.estimate_within(x, DT, (0, 1, 2), *reads)
+        for order in (0, 1, 2):
+            assert np.array_equal(near[order], full[order], equal_nan=True)
+            assert np.array_equal(near.valid[order], full.valid[order])
+
+
+def test_estimate_within_skips_the_check_only_where_it_cannot_matter():
+    # Butterworth masks some end samples of this record; read beyond its reach, the ends come
+    # back unchecked (the check was skipped), read across them, masked as in the full call
+    method = methods.preset("butterworth", "paper-signal")
+    reach = method.end_reach(DT)
+    n = 2 * reach + 401
+    x = np.sin(2 * np.pi * 3 * np.arange(n) * DT)
+    full = method(x, DT, (2,))
+    assert not full.valid[2].all()
+    beyond = method.estimate_within(x, DT, (2,), reach, n - 1 - reach)
+    assert beyond.valid[2].all()
+    across = method.estimate_within(x, DT, (2,), 0, n - 1)
+    assert np.array_equal(across.valid[2], full.valid[2])
+    # a record no longer than the probe: the check covers every sample, so it always runs
+    short = x[: 2 * reach + 1]
+    whole = method(short, DT, (2,))
+    assert not whole.valid[2].all()
+    middle = method.estimate_within(short, DT, (2,), reach, reach)
+    assert np.array_equal(middle.valid[2], whole.valid[2])
