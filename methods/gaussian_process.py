@@ -20,6 +20,7 @@ dense factorisations.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import fft as sp_fft
@@ -75,8 +76,8 @@ this benchmark holds, and the estimate the straight line)."""
 
 FIT_SAMPLES = (200, 400, 800)
 """The choices of ``gaussian_process_ml``'s ``fit_samples``: at most this many samples enter
-the marginal likelihood (each evaluation is O(m³); a fit takes about 0.07, 0.3 and 1.1 s on
-the paper signal): the whole record if it is no longer, else ``FIT_SEGMENTS`` contiguous
+the marginal likelihood (each evaluation is O(m³); a fit takes about 0.03, 0.08 and 0.74 s
+on the paper signal): the whole record if it is no longer, else ``FIT_SEGMENTS`` contiguous
 segments spread evenly over it (their joint likelihood, cross-covariances included)."""
 
 FIT_SEGMENTS = 2
@@ -327,56 +328,134 @@ LIKELIHOOD_JITTER = 1e-10
 default) so that its Cholesky factor exists when the fitted noise level is on its floor."""
 
 
+@dataclass(frozen=True)
+class MirroredTimes:
+    r"""Sample times symmetric about their middle (:math:`t_i + t_{m-1-i}` the same for every
+    i, as :func:`_fit_samples` lays them out), folded into the two halves on which a
+    stationary covariance matrix falls apart.
+
+    The reversal P (sample i to m-1-i) maps such times onto themselves, so P commutes with
+    every matrix :math:`f(|t_i - t_j|)`: in the orthonormal basis of P's even vectors
+    :math:`(e_i + e_{m-1-i})/\sqrt2` (and :math:`e_c`, the middle sample of an odd m) and odd
+    vectors :math:`(e_i - e_{m-1-i})/\sqrt2`, i < h = ⌊m/2⌋, it is block diagonal with
+    blocks :math:`M_\pm = M_{11} \pm M_{12}J` (:math:`M_{11}` the first half's block,
+    :math:`M_{12}J` its block with the mirrored half; the even block bordered by
+    :math:`\sqrt2` times the middle column, and its 1 on the diagonal, for odd m). With the
+    offsets :math:`s_i = t_i - \bar t` of the first half, the squared lags are
+    :math:`(s_i - s_j)^2` within a half and :math:`(s_i + s_j)^2` across (``lags``: the
+    first and the second, bordered by :math:`s_i^2` for odd m; ``border``: the weights that
+    make the bordered even block).
+
+    Reference: A. Cantoni, P. Butler, "Eigenvalues and eigenvectors of symmetric
+    centrosymmetric matrices", Linear Algebra Appl. 13 (1976) 275-288.
+    """
+
+    lags: tuple[np.ndarray, np.ndarray]
+    border: np.ndarray | None
+    half: int
+
+    @classmethod
+    def of(cls, times_s) -> MirroredTimes:
+        t = np.asarray(times_s, dtype=float)
+        m, half = t.size, t.size // 2
+        centre = (t[0] + t[-1]) / 2
+        span = max(t[-1] - t[0], np.finfo(float).tiny)
+        if m < 2 or np.any(np.abs(t + t[::-1] - 2 * centre) > 1e-9 * span):
+            raise ValueError(
+                "`times_s` must hold at least 2 times symmetric about their middle (t_i + "
+                "t_{m-1-i} the same for every i), as fit_hyperparameters' samples are"
+            )
+        offsets = np.r_[t[:half] - centre, np.zeros(m % 2)]  # the middle sample, for odd m
+        within = np.subtract.outer(offsets, offsets) ** 2
+        across = np.add.outer(offsets, offsets) ** 2
+        border = None
+        if m % 2:  # the middle sample (s_c = 0) has the same lags either way
+            border = np.ones((half + 1, half + 1))
+            border[-1, :] = border[:, -1] = 1 / math.sqrt(2)
+            border[-1, -1] = 0.5
+        for lag in (within, across):
+            lag.setflags(write=False)
+        return cls((within, across), border, half)
+
+    def fold(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The even and odd coordinates of ``y`` (length m) in the folded basis."""
+        y = np.asarray(y, dtype=float)
+        h = self.half
+        mirrored = y[::-1][:h]
+        even = (y[:h] + mirrored) / math.sqrt(2)
+        if self.border is not None:
+            even = np.r_[even, y[h]]
+        return even, (y[:h] - mirrored) / math.sqrt(2)
+
+
 def rbf_log_marginal_likelihood(
-    log_params: np.ndarray, squared_lags_s2: np.ndarray, y: np.ndarray
+    log_params: np.ndarray, times_s: np.ndarray, y: np.ndarray
 ) -> tuple[float, np.ndarray]:
-    r"""The log marginal likelihood of ``y`` under an RBF process plus white noise, and its
+    r"""The log marginal likelihood of ``y`` observed at ``times_s`` (symmetric about their
+    middle, see :class:`MirroredTimes`) under an RBF process plus white noise, and its
     gradient in the log-hyperparameters ``log_params`` = (log σ_f², log ℓ, log σ_n²).
 
-    With :math:`E_{ij} = e^{-D_{ij}/(2\ell^2)}` (:math:`D_{ij} = (t_i - t_j)^2`, the matrix
-    ``squared_lags_s2``), :math:`K = \sigma_f^2 E + (\sigma_n^2 + \epsilon) I` (ε =
-    ``LIKELIHOOD_JITTER``), :math:`K = LL^\top` and :math:`\alpha = K^{-1}y`:
+    With :math:`E_{ij} = e^{-D_{ij}/(2\ell^2)}`, :math:`D_{ij} = (t_i - t_j)^2`,
+    :math:`K = \sigma_f^2 E + (\sigma_n^2 + \epsilon) I` (ε = ``LIKELIHOOD_JITTER``) and
+    :math:`\alpha = K^{-1}y`:
 
-    .. math:: \log p(y) = -\tfrac12 y^\top\alpha - \sum_i \log L_{ii} - \tfrac m2 \log 2\pi,
-        \qquad \frac{\partial \log p}{\partial \theta_k} = \tfrac12 \sum_{ij} W_{ij}
-        \frac{\partial K_{ij}}{\partial \theta_k}, \quad W = \alpha\alpha^\top - K^{-1}
+    .. math:: \log p(y) = -\tfrac12 y^\top\alpha - \tfrac12\log\lvert K\rvert
+        - \tfrac m2 \log 2\pi, \qquad \frac{\partial \log p}{\partial \theta_k} = \tfrac12
+        \sum_{ij} W_{ij} \frac{\partial K_{ij}}{\partial \theta_k}, \quad
+        W = \alpha\alpha^\top - K^{-1}
 
     with :math:`\partial K/\partial\log\sigma_f^2 = \sigma_f^2 E`,
     :math:`\partial K/\partial\log\ell = \sigma_f^2 E \circ D/\ell^2` and
-    :math:`\partial K/\partial\log\sigma_n^2 = \sigma_n^2 I`. The value is -inf (gradient
-    zero) where K is not numerically positive definite.
+    :math:`\partial K/\partial\log\sigma_n^2 = \sigma_n^2 I`. All of them are block diagonal
+    in the folded basis (:class:`MirroredTimes`), so every term is the sum of its two blocks',
+    each from the Cholesky factor of its block of K (LAPACK ``potrf``, ``potrs``, ``potri``):
+    two factorisations of m/2 rows instead of one of m, a quarter of the work. The value is
+    -inf (gradient zero) where K is not numerically positive definite.
 
     scikit-learn's ``GaussianProcessRegressor.log_marginal_likelihood`` with the kernel
-    ``ConstantKernel * RBF + WhiteKernel`` computes the same (its test oracle, to rounding),
-    at about 3.5 times the cost at 400 samples: it builds the kernel's gradient as an
-    (m, m, 3) array, the inverse by m triangular solves of the identity (here LAPACK's
-    ``potri``, from the factor) and contracts them with ``einsum``.
+    ``ConstantKernel * RBF + WhiteKernel`` computes the same with the whole matrices (its
+    test oracle, to rounding: within about eps times the condition number of K).
 
     Reference: Rasmussen & Williams (2006), sec. 5.4.1, eqs. (5.8)-(5.9).
     """
+    mirrored = MirroredTimes.of(times_s)
+    return _folded_likelihood(log_params, mirrored, *mirrored.fold(y))
+
+
+def _folded_likelihood(log_params, mirrored: MirroredTimes, *folded_y) -> tuple[float, np.ndarray]:
+    """:func:`rbf_log_marginal_likelihood` from the folded times and the folded ``y``."""
     signal_variance, length_scale_s, noise_variance = np.exp(log_params)
-    m = y.shape[0]
-    correlation = np.exp(squared_lags_s2 * (-0.5 / length_scale_s**2))
-    covariance = signal_variance * correlation
-    covariance.flat[:: m + 1] += noise_variance + LIKELIHOOD_JITTER
-    factor, info = lapack.dpotrf(covariance, lower=1, clean=1, overwrite_a=1)
-    if info:
-        return -math.inf, np.zeros(3)
-    alpha, _ = lapack.dpotrs(factor, y, lower=1)
-    value = -0.5 * float(y @ alpha) - float(np.log(factor.diagonal()).sum())
-    value -= m / 2 * math.log(2 * math.pi)
-    inverse, _ = lapack.dpotri(factor, lower=1, overwrite_c=1)  # its lower triangle
-    diagonal = inverse.diagonal().copy()
-    inverse += inverse.T  # the whole symmetric inverse (the upper triangle was zero)
-    inverse.flat[:: m + 1] = diagonal
-    weights = np.outer(alpha, alpha)
-    weights -= inverse
-    weights *= correlation
-    gradient = 0.5 * np.array([
-        signal_variance * weights.sum(),
-        signal_variance * float(np.vdot(weights, squared_lags_s2)) / length_scale_s**2,
-        noise_variance * (alpha @ alpha - diagonal.sum()),
-    ])  # fmt: skip
+    scale = -0.5 / length_scale_s**2
+    within, across = mirrored.lags
+    near, far = np.exp(within * scale), np.exp(across * scale)  # e^{-D/2ℓ²}, both halves
+    near_lag, far_lag = near * within, far * across  # E∘D
+    h, border = mirrored.half, mirrored.border
+    even = (near + far, near_lag + far_lag)
+    if border is not None:
+        even = (even[0] * border, even[1] * border)
+    blocks = (even, (near[:h, :h] - far[:h, :h], near_lag[:h, :h] - far_lag[:h, :h]))
+    value = -(h + len(folded_y[0])) / 2 * math.log(2 * math.pi)
+    sums = np.zeros(3)
+    for (correlation, correlation_lag), y in zip(blocks, folded_y, strict=True):
+        size = y.shape[0]
+        if not size:
+            continue
+        covariance = signal_variance * correlation
+        covariance.flat[:: size + 1] += noise_variance + LIKELIHOOD_JITTER
+        factor, info = lapack.dpotrf(covariance, lower=1, clean=1, overwrite_a=1)
+        if info:
+            return -math.inf, np.zeros(3)
+        alpha, _ = lapack.dpotrs(factor, y, lower=1)
+        value -= 0.5 * float(y @ alpha) + float(np.log(factor.diagonal()).sum())
+        inverse, _ = lapack.dpotri(factor, lower=1, overwrite_c=1)  # its lower triangle
+        diagonal = inverse.diagonal().copy()
+        inverse += inverse.T  # the whole symmetric inverse (the upper triangle was zero)
+        inverse.flat[:: size + 1] = diagonal
+        weights = np.outer(alpha, alpha)
+        weights -= inverse
+        sums += (float(np.vdot(weights, correlation)), float(np.vdot(weights, correlation_lag)),
+                 float(alpha @ alpha - diagonal.sum()))  # fmt: skip
+    gradient = 0.5 * sums * (signal_variance, signal_variance / length_scale_s**2, noise_variance)
     return value, gradient
 
 
@@ -390,16 +469,17 @@ def likelihood_optimum(
 
     This is scikit-learn's ``GaussianProcessRegressor(ConstantKernel * RBF + WhiteKernel,
     alpha=1e-10, n_restarts_optimizer=FIT_RESTARTS, random_state=0).fit`` step for step (its
-    test oracle), with a likelihood about 3.5 times cheaper.
+    test oracle), with a likelihood about 6 times cheaper at 400 samples (2.9 against 18 ms).
     """
     from threadpoolctl import threadpool_limits  # a dependency of scikit-learn
 
-    squared_lags = np.subtract.outer(times_s, times_s) ** 2
+    mirrored = MirroredTimes.of(times_s)
+    folded = mirrored.fold(y)
     draws = np.random.RandomState(0)
     starts = [start] + [draws.uniform(bounds[:, 0], bounds[:, 1]) for _ in range(FIT_RESTARTS)]
 
     def negative(log_params):
-        value, gradient = rbf_log_marginal_likelihood(log_params, squared_lags, y)
+        value, gradient = _folded_likelihood(log_params, mirrored, *folded)
         return -value, -gradient
 
     # One BLAS thread: factorisations of a few hundred rows gain nothing from threads, and
@@ -570,7 +650,7 @@ class GaussianProcessMarginalLikelihood(Method):
     Time-symmetric: the likelihood runs on the record in a canonical direction (the
     lexicographically smaller of x and its reverse), so that reversing time reverses the
     estimate to rounding rather than to the optimiser's tolerance. Each call costs
-    the fit (about 0.3 s per channel at ``fit_samples`` = 400) plus the posterior mean.
+    the fit (about 0.08 s per channel at ``fit_samples`` = 400) plus the posterior mean.
 
     Parameters
     ----------
@@ -594,7 +674,7 @@ class GaussianProcessMarginalLikelihood(Method):
     presets = {
         "paper-signal": Preset(
             {"fit_samples": 400},
-            "data only: the marginal likelihood chooses the smoothing; 400 samples, a 0.3 s fit",
+            "data only: the marginal likelihood chooses the smoothing; 400 samples, a 0.08 s fit",
         ),
     }
     reference = "Rasmussen & Williams (2006)"

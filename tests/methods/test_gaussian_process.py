@@ -241,21 +241,27 @@ def _scikit_learn_regressor(t, start_length_s, span_s, restarts=1):
 
 
 @pytest.mark.parametrize(
+    "steps",
+    # two separated segments, as the fit's samples are laid out on long records; a whole
+    # record of odd length (the folded even block is bordered by the middle sample); 3 samples
+    [np.r_[np.arange(150), np.arange(900, 1050)], np.arange(301), np.arange(3)],
+    ids=["two-segments", "odd-record", "three-samples"],
+)
+@pytest.mark.parametrize(
     ("signal_variance", "length_scale_s", "noise_variance"),
     [(1.0, 0.01, 0.1), (3.7, 0.2, 1e-6), (0.02, 0.001, 5.0), (50.0, 0.05, 1e-8)],
 )
 def test_the_log_marginal_likelihood_and_its_gradient_are_scikit_learns(
-    signal_variance, length_scale_s, noise_variance
+    signal_variance, length_scale_s, noise_variance, steps
 ):
-    # two separated segments, as the fit's samples are laid out on long records
-    t = np.r_[np.arange(150), np.arange(900, 1050)] * DT
+    t = steps * DT
     y = np.sin(2 * np.pi * 4 * t) + 0.05 * np.random.default_rng(1).standard_normal(t.size)
     regressor = _scikit_learn_regressor(t, 0.01, 1.0)
     regressor.optimizer = None
     regressor.fit(t[:, None], y)
     log_params = np.log([signal_variance, length_scale_s, noise_variance])
     theirs, their_gradient = regressor.log_marginal_likelihood(log_params, eval_gradient=True)
-    ours, gradient = rbf_log_marginal_likelihood(log_params, (t[:, None] - t) ** 2, y)
+    ours, gradient = rbf_log_marginal_likelihood(log_params, t, y)
     # two rounding paths through K's factor differ by up to about eps * cond(K): 3e-13 to
     # 8e-7 here (measured 0 to 4e-7; cond(K) from 1 to 5e11)
     covariance = signal_variance * rbf_covariance(t[:, None] - t, length_scale_s, 0)
@@ -266,26 +272,32 @@ def test_the_log_marginal_likelihood_and_its_gradient_are_scikit_learns(
                                atol=rel * np.abs(their_gradient).max())  # fmt: skip
 
 
+def test_the_likelihood_refuses_times_not_symmetric_about_their_middle():
+    t = np.r_[np.arange(150), np.arange(900, 1051)] * DT
+    with pytest.raises(ValueError, match=r"`times_s` must hold at least 2 times symmetric"):
+        rbf_log_marginal_likelihood(np.zeros(3), t, np.ones(t.size))
+
+
 def test_the_likelihood_gradient_is_the_derivative_of_the_likelihood():
     t = np.arange(200) * DT
     y = np.cos(2 * np.pi * 3 * t) + 0.1 * np.random.default_rng(2).standard_normal(t.size)
-    squared_lags = (t[:, None] - t) ** 2
     log_params = np.log([2.0, 0.03, 0.02])
-    _, gradient = rbf_log_marginal_likelihood(log_params, squared_lags, y)
+    _, gradient = rbf_log_marginal_likelihood(log_params, t, y)
     for k in range(3):
         step = np.zeros(3)
         step[k] = 1e-5
-        up, _ = rbf_log_marginal_likelihood(log_params + step, squared_lags, y)
-        down, _ = rbf_log_marginal_likelihood(log_params - step, squared_lags, y)
+        up, _ = rbf_log_marginal_likelihood(log_params + step, t, y)
+        down, _ = rbf_log_marginal_likelihood(log_params - step, t, y)
         assert (up - down) / 2e-5 == pytest.approx(gradient[k], rel=1e-6, abs=1e-6)
 
 
 @pytest.mark.parametrize(
     ("noise_std", "tolerance"),
-    # an interior optimum agrees to rounding; noise-free data put the noise level on its floor,
-    # where the likelihood is flat along the bound and the optimiser's last steps follow
-    # rounding (measured: log ℓ 1.1e-5 apart, log p 8e-10, within L-BFGS-B's ftol of 2.2e-9)
-    [(0.05, 1e-9), (0.0, 1e-4)],
+    # an interior optimum agrees to rounding (measured: 2e-11 in log-parameters); noise-free
+    # data put the noise level on its floor, where the likelihood is flat along the bound and
+    # the optimiser's last steps follow rounding (measured: log σ_f² 1.0e-4 apart, log ℓ
+    # 7.7e-6, log p 4.7e-10, within L-BFGS-B's ftol of 2.2e-9)
+    [(0.05, 1e-9), (0.0, 1e-3)],
 )
 def test_the_likelihood_optimum_is_scikit_learns(noise_std, tolerance):
     """The same optimiser from the same starts (a seeded restart included) as
