@@ -164,6 +164,11 @@ class Gains:
     steady: SteadyState
 
 
+CONVERGENCE_BLOCK = 16
+"""Steps of :func:`covariance_recursion` tested for convergence at once (one vectorised test
+instead of one per step: the loop's cost is its numpy calls)."""
+
+
 def covariance_recursion(model: KalmanModel, prior_covariance: np.ndarray, n: int) -> Gains:
     """Run the covariance part of the filter and smoother (filterpy's equations: Joseph-form
     update, C_k = P_k Fᵀ (F P_k Fᵀ + Q)⁻¹) for n steps or until the gain and the covariance
@@ -187,17 +192,31 @@ def covariance_recursion(model: KalmanModel, prior_covariance: np.ndarray, n: in
     # denominator both: computed once. The smoother gains are taken after the loop, all at
     # once (numpy's inv and matmul run the same LAPACK and BLAS calls on each matrix of a
     # stack as on one: the same bits).
-    for _ in range(n):
-        gain = predicted[:, 0] / (predicted[0, 0] + R)
-        i_kh = identity.copy()
-        i_kh[:, 0] -= gain
-        P = i_kh @ predicted @ i_kh.T + R * (gain[:, None] * gain[None, :])
-        predicted = F @ P @ F_t + Q
-        filter_gains.append(gain)
-        covariances.append(P)
-        predictions.append(predicted)
-        if abs(gain - target_gain).max() <= gain_tolerance and (abs(P - target) <= tolerance).all():
+    # The convergence test runs on blocks of CONVERGENCE_BLOCK steps at once, and the
+    # recursion stops at the first converged step of the block: the steps after it, computed
+    # ahead, are dropped (each step is computed as it would be alone: the same bits).
+    done = 0
+    while done < n:
+        block = min(CONVERGENCE_BLOCK, n - done)
+        for _ in range(block):
+            gain = predicted[:, 0] / (predicted[0, 0] + R)
+            i_kh = identity.copy()
+            i_kh[:, 0] -= gain
+            P = i_kh @ predicted @ i_kh.T + R * (gain[:, None] * gain[None, :])
+            predicted = F @ P @ F_t + Q
+            filter_gains.append(gain)
+            covariances.append(P)
+            predictions.append(predicted)
+        gain_errors = np.abs(np.array(filter_gains[done:]) - target_gain).max(axis=1)
+        covariance_fits = (np.abs(np.array(covariances[done:]) - target) <= tolerance).all(
+            axis=(1, 2)
+        )
+        converged = np.flatnonzero((gain_errors <= gain_tolerance) & covariance_fits)
+        if converged.size:
+            last = done + int(converged[0]) + 1
+            del filter_gains[last:], covariances[last:], predictions[last:]
             break
+        done += block
     smoother_gains = np.array(covariances) @ F_t @ np.linalg.inv(np.array(predictions))
     return Gains(
         filter_gains=np.array(filter_gains),
@@ -347,10 +366,10 @@ def rts_smooth(
     transient = min(n, len(gains.filter_gains))
     filtered = np.empty((transient, m, z.shape[1]))
     state = mean0
-    for k in range(transient):
-        predicted = F @ state
-        state = predicted + np.outer(gains.filter_gains[k], z[k] - predicted[0])
-        filtered[k] = state
+    gain_columns = gains.filter_gains[:transient, :, None]
+    for k in range(transient):  # s_k = F s_{k-1} + K_k (z_k - (F s_{k-1})_0), in place
+        state = np.matmul(F, state, out=filtered[k])
+        state += gain_columns[k] * (z[k] - state[0])
     smoothed = np.empty((len(components), n, z.shape[1]))  # component by component
     if n > transient:
         smoothed[:, transient:], following = _steady_passes(
@@ -359,9 +378,9 @@ def rts_smooth(
     else:
         following = filtered[-1]
         smoothed[:, -1] = following[components]
+    predicted = F @ filtered  # F s_k for every transient k at once (the same bits)
     for k in range(min(n - 2, transient - 1), -1, -1):
-        c_k = gains.smoother_gains[k]
-        following = filtered[k] + c_k @ (following - F @ filtered[k])
+        following = filtered[k] + gains.smoother_gains[k] @ (following - predicted[k])
         smoothed[:, k] = following[components]
     return smoothed.transpose(1, 0, 2)
 

@@ -164,3 +164,24 @@ def test_bad_input(params, dt, x, message):
     with pytest.raises(ValueError, match=message):
         method = methods.get("kalman", **params)
         method(np.zeros(100) if x is None else x, dt)
+
+
+@pytest.mark.parametrize(
+    ("model_order", "bandwidth_hz", "n"),
+    [(2, 20.0, 10**6), (3, 300.0, 10**6), (3, 5.0, 37), (2, 1.0, 16)],
+)
+def test_the_recursion_tested_by_blocks_stops_at_the_first_converged_step(
+    model_order, bandwidth_hz, n, monkeypatch
+):
+    """The convergence test on blocks of steps gives the recursion tested step by step, bit
+    for bit: the same number of steps (the first converged one, or n) and the same gains."""
+    from diffbench.methods import kalman
+
+    model = polynomial_model(model_order, 1e-3, bandwidth_hz)
+    _, covariance0 = initial_state(np.zeros((16, 1)), model.per_step_coefficient)
+    blocks = covariance_recursion(model, covariance0, n)
+    monkeypatch.setattr(kalman, "CONVERGENCE_BLOCK", 1)
+    steps = covariance_recursion(model, covariance0, n)
+    assert len(blocks.filter_gains) == len(steps.filter_gains) <= n
+    assert np.array_equal(blocks.filter_gains, steps.filter_gains)
+    assert np.array_equal(blocks.smoother_gains, steps.smoother_gains)
