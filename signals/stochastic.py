@@ -110,8 +110,17 @@ class Model:
 
     def discretise(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """``(A, Q)``: the exact transition over ``dt`` and the covariance of the noise it
-        adds (Van Loan 1978)."""
-        return _discretise(self.F.tobytes(), self.L.tobytes(), self.q_c, self.states, float(dt))
+        adds (Van Loan 1978; see :func:`_discretise`)."""
+        A, Q, _ = _discretise(self.F.tobytes(), self.L.tobytes(), self.q_c, self.states,
+                              float(dt))  # fmt: skip
+        return A, Q
+
+    def transition_and_root(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(A, R)``: the transition over ``dt`` and a square root R of the noise covariance
+        (R Rᵀ = Q), each entry to its own relative precision (see :func:`_discretise`)."""
+        A, _, root = _discretise(self.F.tobytes(), self.L.tobytes(), self.q_c, self.states,
+                                 float(dt))  # fmt: skip
+        return A, root
 
     def stationary_covariance(self) -> np.ndarray:
         """:math:`P_\\infty`, solving :math:`F P + P F^\\top + q_c L L^\\top = 0`."""
@@ -122,18 +131,44 @@ class Model:
 
 @functools.lru_cache(maxsize=256)
 def _discretise(f_bytes: bytes, l_bytes: bytes, q_c: float, states: int, dt: float):
+    r"""``(A, Q, R)`` of the model over ``dt`` by Van Loan's block exponential, computed in
+    the state :math:`z'_k = \Delta t^k z_k` and the time :math:`u = t/\Delta t`
+    (:math:`F' = \Delta t\, S F S^{-1}`, :math:`L' = S L`, :math:`q'_c = q_c \Delta t`,
+    S = diag(Δt^k), a unit step), then brought back: :math:`A = S^{-1} A' S`,
+    :math:`Q = S^{-1} Q' S^{-1}`, :math:`R = S^{-1} R'` with :math:`R' R'^\top = Q'`
+    (:func:`_root`).
+
+    In the original state the entries of Q span :math:`q_c \Delta t^{2k+1}` down to
+    :math:`q_c \Delta t^{2(k-i)+1}`: rounding relative to the largest swamps the smallest
+    and an eigendecomposition of Q resolves its small eigenvalues only to that rounding: at
+    10 µs a drawn Matérn 7/2's ẋ differentiated to its ẍ only to 1.7e-3 (RMS, relative) on
+    one machine, and to within 3e-4 on another. In the scaled state the entries are of one
+    size, so every entry of Q and of its root keeps its own relative precision (4.6e-6 there,
+    the finite difference's own error). The root is not the one of the unscaled Q: the same
+    seed draws another realisation of the same law (records drawn before differ).
+
+    Reference: C. F. Van Loan, "Computing integrals involving the matrix exponential", IEEE
+    Trans. Automatic Control 23 (1978) 395-404.
+    """
     F = np.frombuffer(f_bytes).reshape(states, states)
     L = np.frombuffer(l_bytes)
+    scale = dt ** np.arange(states)
+    scaled_f = dt * F * np.outer(scale, 1 / scale)
+    scaled_l = scale * L
     block = np.zeros((2 * states, 2 * states))
-    block[:states, :states] = -F
-    block[:states, states:] = q_c * np.outer(L, L)
-    block[states:, states:] = F.T
-    exponential = linalg.expm(block * dt)
-    A = exponential[states:, states:].T
-    Q = A @ exponential[:states, states:]
-    Q = 0.5 * (Q + Q.T)
-    A.flags.writeable = Q.flags.writeable = False
-    return A, Q
+    block[:states, :states] = -scaled_f
+    block[:states, states:] = q_c * dt * np.outer(scaled_l, scaled_l)
+    block[states:, states:] = scaled_f.T
+    exponential = linalg.expm(block)
+    scaled_a = exponential[states:, states:].T
+    scaled_q = scaled_a @ exponential[:states, states:]
+    scaled_q = 0.5 * (scaled_q + scaled_q.T)
+    A = scaled_a * np.outer(1 / scale, scale)
+    Q = scaled_q / np.outer(scale, scale)
+    root = _root(scaled_q) / scale[:, None]
+    for array in (A, Q, root):
+        array.flags.writeable = False
+    return A, Q, root
 
 
 class GaussMarkov(RandomSignal):
@@ -177,8 +212,7 @@ class GaussMarkov(RandomSignal):
         factors: dict[float, tuple[np.ndarray, np.ndarray]] = {}
         for j, step in enumerate(steps):
             if step not in factors:
-                A, Q = model.discretise(step)
-                factors[step] = (A, _root(Q))
+                factors[step] = model.transition_and_root(step)
             A, root = factors[step]
             z = A @ z + root @ shocks[j + 1]
             path[j + 1] = z
