@@ -87,7 +87,8 @@ lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 
-# two worker processes (pytest-xdist): the suite takes about 9 min on 2 cores (8.6-9.4 min on 2026-11-27)
+# two worker processes (pytest-xdist): the suite takes about 5 min on 2 cores (4.8 min on 2026-11-27;
+# 8.6-9.4 min on a slower machine)
 test: lint
 	$(BIN)/python -m pytest -q -n 2 --benchmark-disable
 
