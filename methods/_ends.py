@@ -101,7 +101,7 @@ def _trusted(
     short_record_middle: bool,
 ) -> dict:
     reach = method.end_reach(dt)
-    length = min(n_samples, max(2 * reach + 1, method.min_samples(dt)))
+    length = probe_length(method, n_samples, dt)
     edges = {
         order: band_edge_hz(lambda f, o=order: method._response(f, dt, o), order, dt)
         for order in orders
@@ -131,6 +131,23 @@ def _trusted(
             mask[length // 2] = False
         masks[order] = mask
     return masks
+
+
+def probe_length(method, n_samples: int, dt: float) -> int:
+    """Samples the ends check runs ``method`` on: ``2 reach + 1`` (or the method's least
+    record, if longer), at most the record's ``n_samples``."""
+    return min(n_samples, max(2 * method.end_reach(dt) + 1, method.min_samples(dt)))
+
+
+def check_reaches(method, n_samples: int, dt: float, first: int, last: int) -> bool:
+    """Whether the ends check of ``method`` (a linear method with a reach) can mask any of the
+    samples ``first`` to ``last`` of a record of ``n_samples``: on a record longer than the
+    probe (:func:`probe_length`) it masks only the first and last ``end_reach(dt)`` samples;
+    on one no longer, any sample (the middle one included)."""
+    reach = method.end_reach(dt)
+    if probe_length(method, n_samples, dt) >= n_samples:
+        return True
+    return not reach <= first <= last < n_samples - reach
 
 
 def mask_untrusted(values: np.ndarray, keep: np.ndarray) -> np.ndarray:

@@ -18,7 +18,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from diffbench.methods._ends import mask_untrusted, trusted_samples
+from diffbench.methods._ends import check_reaches, mask_untrusted, trusted_samples
 from diffbench.methods._fir import apply_central_firs, fir_response
 from diffbench.methods._plugins import (
     distributions_of_modules,
@@ -396,17 +396,15 @@ class Method:
         self.check_step(dt)
         values, valid = self._estimate(x, dt, orders)
         reach = self.end_reach(dt) if self.linear else None
-        if reach and reads is not None:
-            probe = max(2 * reach + 1, self.min_samples(dt))
-            if n > probe and reach <= reads[0] <= reads[1] < n - reach:
-                reach = None  # the check cannot reach the samples read
+        if reach and reads is not None and not check_reaches(self, n, dt, *reads):
+            reach = None  # the check cannot reach the samples read
         if reach:
-            trusted = trusted_samples(self, x.shape[0], dt, orders)
+            trusted = trusted_samples(self, n, dt, orders)
             for order in orders:
                 keep = valid[order] & trusted[order]
                 if not keep.any():
                     raise ValueError(
-                        f"`x` has {x.shape[0]} samples on axis 0: too short for {self.name} "
+                        f"`x` has {n} samples on axis 0: too short for {self.name} "
                         f"with {self.params()} to give any estimate of order {order} within "
                         f"its own accuracy (its ends take up to {reach} samples each); use a "
                         f"longer record, or settings with a shorter reach"

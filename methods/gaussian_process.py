@@ -437,9 +437,7 @@ def _folded_likelihood(log_params, mirrored: MirroredTimes, *folded_y) -> tuple[
     value = -(h + len(folded_y[0])) / 2 * math.log(2 * math.pi)
     sums = np.zeros(3)
     for (correlation, correlation_lag), y in zip(blocks, folded_y, strict=True):
-        size = y.shape[0]
-        if not size:
-            continue
+        size = y.shape[0]  # both blocks hold at least one row: MirroredTimes has m >= 2
         covariance = signal_variance * correlation
         covariance.flat[:: size + 1] += noise_variance + LIKELIHOOD_JITTER
         factor, info = lapack.dpotrf(covariance, lower=1, clean=1, overwrite_a=1)
