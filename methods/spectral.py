@@ -299,9 +299,10 @@ class Spectral(Method):
 
     The record must span at least two periods of the cutoff. Every sample is estimated (no
     masked ends). Long records (from about 1e6 samples) are transformed in bounded memory:
-    694 MiB at 1e7 samples (see :func:`_lean_derivatives`). Linear in the input. Exact on polynomials of ``fit_degree`` with the
-    ``odd-fitted`` extension, on straight lines with ``odd`` and on constants with the others:
-    the polynomial taken out is differentiated exactly, and a low-pass passes 0 Hz unchanged.
+    694 MiB at 1e7 samples (see :func:`_lean_derivatives`). Linear in the input. Exact on
+    polynomials of ``fit_degree`` with the ``odd-fitted`` extension, on straight lines with
+    ``odd`` and on constants with the others: the polynomial taken out is differentiated
+    exactly, and a low-pass passes 0 Hz unchanged.
     Its frequency response away from the ends is :math:`H(f)(i2\\pi f)^n`.
 
     Parameters

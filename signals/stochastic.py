@@ -111,16 +111,25 @@ class Model:
     def discretise(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """``(A, Q)``: the exact transition over ``dt`` and the covariance of the noise it
         adds (Van Loan 1978; see :func:`_discretise`)."""
-        A, Q, _ = _discretise(self.F.tobytes(), self.L.tobytes(), self.q_c, self.states,
-                              float(dt))  # fmt: skip
-        return A, Q
+        scaled_a, scaled_q, _, scale = self._discretised(dt)
+        return scaled_a * np.outer(1 / scale, scale), scaled_q / np.outer(scale, scale)
 
     def transition_and_root(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """``(A, R)``: the transition over ``dt`` and a square root R of the noise covariance
         (R Rᵀ = Q), each entry to its own relative precision (see :func:`_discretise`)."""
-        A, _, root = _discretise(self.F.tobytes(), self.L.tobytes(), self.q_c, self.states,
-                                 float(dt))  # fmt: skip
-        return A, root
+        scaled_a, _, scaled_root, scale = self._discretised(dt)
+        return scaled_a * np.outer(1 / scale, scale), scaled_root / scale[:, None]
+
+    def scaled_discretisation(self, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        r"""``(A', Q', s)``: the model over ``dt`` in the state :math:`z'_k = s_k z_k`,
+        :math:`s_k = \Delta t^k` (each derivative times the step to its order), where
+        :func:`_discretise` computes it: its entries are of one size, so Riccati and
+        Lyapunov equations on it are well conditioned (read-only arrays)."""
+        scaled_a, scaled_q, _, scale = self._discretised(dt)
+        return scaled_a, scaled_q, scale
+
+    def _discretised(self, dt: float):
+        return _discretise(self.F.tobytes(), self.L.tobytes(), self.q_c, self.states, float(dt))
 
     def stationary_covariance(self) -> np.ndarray:
         """:math:`P_\\infty`, solving :math:`F P + P F^\\top + q_c L L^\\top = 0`."""
@@ -131,12 +140,12 @@ class Model:
 
 @functools.lru_cache(maxsize=256)
 def _discretise(f_bytes: bytes, l_bytes: bytes, q_c: float, states: int, dt: float):
-    r"""``(A, Q, R)`` of the model over ``dt`` by Van Loan's block exponential, computed in
-    the state :math:`z'_k = \Delta t^k z_k` and the time :math:`u = t/\Delta t`
+    r"""``(A', Q', R', s)``: the model over ``dt`` by Van Loan's block exponential, in the
+    state :math:`z'_k = \Delta t^k z_k` and the time :math:`u = t/\Delta t`
     (:math:`F' = \Delta t\, S F S^{-1}`, :math:`L' = S L`, :math:`q'_c = q_c \Delta t`,
-    S = diag(Δt^k), a unit step), then brought back: :math:`A = S^{-1} A' S`,
-    :math:`Q = S^{-1} Q' S^{-1}`, :math:`R = S^{-1} R'` with :math:`R' R'^\top = Q'`
-    (:func:`_root`).
+    S = diag(s), :math:`s_k = \Delta t^k`, a unit step), with :math:`R' R'^\top = Q'`
+    (:func:`_root`). :class:`Model` brings them back: :math:`A = S^{-1} A' S`,
+    :math:`Q = S^{-1} Q' S^{-1}`, :math:`R = S^{-1} R'`.
 
     In the original state the entries of Q span :math:`q_c \Delta t^{2k+1}` down to
     :math:`q_c \Delta t^{2(k-i)+1}`: rounding relative to the largest swamps the smallest
@@ -163,12 +172,10 @@ def _discretise(f_bytes: bytes, l_bytes: bytes, q_c: float, states: int, dt: flo
     scaled_a = exponential[states:, states:].T
     scaled_q = scaled_a @ exponential[:states, states:]
     scaled_q = 0.5 * (scaled_q + scaled_q.T)
-    A = scaled_a * np.outer(1 / scale, scale)
-    Q = scaled_q / np.outer(scale, scale)
-    root = _root(scaled_q) / scale[:, None]
-    for array in (A, Q, root):
+    scaled_root = _root(scaled_q)
+    for array in (scaled_a, scaled_q, scaled_root, scale):
         array.flags.writeable = False
-    return A, Q, root
+    return scaled_a, scaled_q, scaled_root, scale
 
 
 class GaussMarkov(RandomSignal):
@@ -462,7 +469,7 @@ def steady_bounds(signal: GaussMarkov, dt: float, noise_std: float) -> SteadyBou
     h^\top P^-`; the smoother gain is :math:`J = P A^\top (P^-)^{-1}` and its covariance
     :math:`P_s` solves :math:`P_s - J P_s J^\top = P - J P^- J^\top` (Anderson & Moore 1979,
     ch. 7)."""
-    A, Q, scale = _scaled_model(signal, dt)
+    A, Q, scale = signal.model().scaled_discretisation(dt)
     h = np.zeros((A.shape[0], 1))
     h[0, 0] = 1.0
     R = np.array([[noise_std**2]])
@@ -475,15 +482,6 @@ def steady_bounds(signal: GaussMarkov, dt: float, noise_std: float) -> SteadyBou
     unscale = np.outer(scale, scale)
     return SteadyBounds(filtered=0.5 * (filtered + filtered.T) / unscale,
                         smoothed=0.5 * (smoothed + smoothed.T) / unscale)  # fmt: skip
-
-
-def _scaled_model(signal: GaussMarkov, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    r"""``(A', Q', s)``: the discretised model in the state :math:`z'_k = s_k z_k`,
-    :math:`s_k = \Delta t^k` (each derivative times the step to its order, so that the
-    entries are of one size and the Riccati and Lyapunov solutions well conditioned)."""
-    A, Q = signal.model().discretise(dt)
-    scale = dt ** np.arange(A.shape[0])
-    return A * np.outer(scale, 1 / scale), Q * np.outer(scale, scale), scale
 
 
 def smoother_bound(
@@ -502,7 +500,7 @@ def smoother_bound_spectral(signal: GaussMarkov, dt: float, noise_std: float, or
     the module docstring, by adaptive quadrature over [0, 1/(2 dt)] (the integrand is even in
     f), in the variable f / Nyquist."""
     dt, noise_std = _check_bound_args(signal, dt, noise_std, order)
-    A, Q, scale = _scaled_model(signal, dt)
+    A, Q, scale = signal.model().scaled_discretisation(dt)
     states = A.shape[0]
     inverse_q = np.linalg.inv(Q)
     h = np.zeros(states)
