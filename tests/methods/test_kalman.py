@@ -1,9 +1,11 @@
-"""The Kalman smoother against filterpy's own filter and smoother."""
+"""The Kalman smoother against filterpy's own filter and smoother, by recursions and by
+blocks (long records)."""
 
 import numpy as np
 import pytest
 
 from diffbench import methods
+from diffbench.methods import kalman
 from diffbench.methods.kalman import (
     CONVERGED,
     ROUNDING,
@@ -29,13 +31,22 @@ def _filterpy(z, model, mean0, covariance0):
     return smoothed[:, :, 0]
 
 
+@pytest.fixture(params=["recursions", "blocks"])
+def steady_path(request, monkeypatch):
+    """Runs a test with the steady part by recursions (short records), and again by blocks
+    (:func:`kalman._blocked_steady_passes`, long records) from 33 steady samples on."""
+    if request.param == "blocks":
+        monkeypatch.setattr(kalman, "BLOCKED_FROM", 1)
+    return request.param
+
+
 @pytest.mark.parametrize(
     ("model_order", "n", "bandwidth_hz", "dt"),
     [(2, 9, 20.0, 1e-3), (2, 60, 20.0, 1e-3), (3, 60, 40.0, 1e-3), (2, 3000, 20.0, 1e-3),
      (3, 3000, 5.0, 1e-3), (2, 500, 1.0, 0.01), (3, 2500, 60.0, 1e-3), (2, 4000, 150.0, 1e-3),
      (3, 3000, 300.0, 1e-3), (3, 1500, 440.0, 1e-3)],
 )  # fmt: skip
-def test_fast_smoother_equals_filterpy(model_order, n, bandwidth_hz, dt):
+def test_fast_smoother_equals_filterpy(model_order, n, bandwidth_hz, dt, steady_path):
     rng = np.random.default_rng(n + model_order)
     t = np.arange(n) * dt
     z = np.sin(2 * np.pi * 3 * t) + 0.5 * t**2 + 0.1 * rng.standard_normal(n)
@@ -103,7 +114,7 @@ def test_the_steady_response_is_what_the_time_domain_gives_at_a_low_bandwidth():
                                    atol=1e-7 * (2 * np.pi * frequency) ** order)  # fmt: skip
 
 
-def test_method_equals_filterpy_in_raw_derivative_units_on_every_channel():
+def test_method_equals_filterpy_in_raw_derivative_units_on_every_channel(steady_path):
     dt = 1e-3
     rng = np.random.default_rng(5)
     x = rng.standard_normal((700, 2)).cumsum(axis=0) * 0.01
@@ -185,3 +196,42 @@ def test_the_recursion_tested_by_blocks_stops_at_the_first_converged_step(
     assert len(blocks.filter_gains) == len(steps.filter_gains) <= n
     assert np.array_equal(blocks.filter_gains, steps.filter_gains)
     assert np.array_equal(blocks.smoother_gains, steps.smoother_gains)
+
+
+@pytest.mark.parametrize(("model_order", "bandwidth_hz"), [(3, 24.0), (2, 5.0), (2, 100.0),
+                                                          (3, 300.0)])  # fmt: skip
+@pytest.mark.parametrize(("n", "channels"), [(33, 1), (34, 1), (65, 2), (1001, 3), (2000, 1)])
+def test_the_blocks_give_the_recursions_values(model_order, bandwidth_hz, n, channels):
+    """The steady part by blocks of 32 against the same by recursions, for records of one
+    block and a tail of 1 or 2 samples up to 62 blocks, one to three channels (the output not
+    contiguous), the components asked in any order: to rounding, and the whole state at k = 0
+    the same."""
+    model = polynomial_model(model_order, 1e-3, bandwidth_hz)
+    steady = steady_state(model.F, model.Q, model.R)
+    rng = np.random.default_rng(n)
+    t = np.arange(n) * 1e-3
+    z = np.sin(2 * np.pi * 3 * t)[:, None] + 0.05 * rng.standard_normal((n, channels))
+    before = rng.standard_normal((model.states, channels))
+    components = [2, 0, 1] if channels > 1 else list(range(model.states))
+    expected, expected_state = kalman._steady_passes(z, steady, model.F, before, components)
+    blocks = np.full((len(components), n, channels), np.nan)
+    state = kalman._blocked_steady_passes(z, steady, model.F, before, components, blocks)
+    for row in range(len(components)):
+        scale = np.max(np.abs(expected[row]))
+        np.testing.assert_allclose(blocks[row], expected[row], rtol=0, atol=2e-13 * scale)
+    np.testing.assert_allclose(state, expected_state, rtol=0,
+                               atol=1e-13 * np.max(np.abs(expected_state)))  # fmt: skip
+
+
+def test_a_steady_part_of_one_sample_is_smoothed():
+    """A record one sample longer than the covariance transient: the steady recursions run
+    on one sample forward and none backward (an IndexError until 2026-11-27)."""
+    dt, bandwidth_hz = 1e-3, 100.0
+    model = polynomial_model(2, dt, bandwidth_hz)
+    _, covariance0 = initial_state(np.zeros((12, 1)), model.per_step_coefficient)
+    n = len(covariance_recursion(model, covariance0, 10**6).filter_gains) + 1
+    z = np.sin(np.arange(n) * 0.01)
+    mean0, covariance0 = initial_state(z[:, None], model.per_step_coefficient)
+    fast = rts_smooth(z[:, None], model, mean0, covariance0)[:, :, 0]
+    reference = _filterpy(z, model, mean0[:, 0], covariance0)
+    assert np.all(np.max(np.abs(fast - reference), axis=0) <= 1e-8 * np.max(abs(reference), 0))
