@@ -378,9 +378,11 @@ class Method:
         The ends check (:func:`~diffbench.methods._ends.trusted_samples`) can mask only the
         first and last ``end_reach(dt)`` samples of a record longer than its probe (``max(2
         reach + 1, min_samples)`` samples); when samples ``first..last`` lie beyond both, it
-        is skipped: their values and validity are those of the full call, bit for bit, and
-        the samples outside them come back unchecked (marked valid where finite). Otherwise,
-        and for irregular records, this is the full call."""
+        is skipped, and so is the end treatment of a method that saves by it
+        (:meth:`_estimate_away_from_ends`): the samples read have the values and validity of
+        the full call, bit for bit, and the samples outside them come back unchecked (marked
+        valid where finite) or, where the end treatment was skipped, NaN and invalid.
+        Otherwise, and for irregular records, this is the full call."""
         return self._uniform(x, dt, orders, reads=(int(first), int(last)))
 
     def _uniform(self, x, dt: float, orders, reads: tuple[int, int] | None = None) -> Estimate:
@@ -394,10 +396,13 @@ class Method:
         n = x.shape[0]
         self._check_longest(n, dt)
         self.check_step(dt)
-        values, valid = self._estimate(x, dt, orders)
         reach = self.end_reach(dt) if self.linear else None
         if reach and reads is not None and not check_reaches(self, n, dt, *reads):
-            reach = None  # the check cannot reach the samples read
+            # neither the ends check nor the end treatment can reach the samples read
+            values, valid = self._estimate_away_from_ends(x, dt, orders)
+            reach = None
+        else:
+            values, valid = self._estimate(x, dt, orders)
         if reach:
             trusted = trusted_samples(self, n, dt, orders)
             for order in orders:
@@ -468,6 +473,13 @@ class Method:
 
     def _estimate(self, x: np.ndarray, dt: float, orders: tuple[int, ...]):
         raise NotImplementedError
+
+    def _estimate_away_from_ends(self, x: np.ndarray, dt: float, orders: tuple[int, ...]):
+        """:meth:`_estimate` for a caller that reads no sample within ``end_reach(dt)`` of
+        either end (:meth:`estimate_within`): a method whose end treatment costs may leave
+        those samples NaN and invalid, the others bit for bit as :meth:`_estimate` gives
+        them. By default the full :meth:`_estimate`."""
+        return self._estimate(x, dt, orders)
 
 
 class FirMethod(Method):

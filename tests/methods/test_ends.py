@@ -218,3 +218,24 @@ def test_estimate_within_skips_the_check_only_where_it_cannot_matter():
     assert not whole.valid[2].all()
     middle = method.estimate_within(short, DT, (2,), reach, reach)
     assert np.array_equal(middle.valid[2], whole.valid[2])
+
+
+def test_savitzky_golay_read_away_from_its_ends_skips_their_fits():
+    """Read beyond its half window from both ends, Savitzky–Golay runs its central filter
+    alone: the samples read are the full call's, the end samples (which the full call fits
+    one-sidedly, and keeps where its ends check trusts them) come back NaN and invalid;
+    reading one of them gets the full call."""
+    method = methods.get("savitzky_golay", window_s=0.1, degree=2)  # masks 11 of 50 an end
+    reach = method.end_reach(DT)
+    n = 400
+    x = np.sin(2 * np.pi * 3 * np.arange(n) * DT)
+    full = method(x, DT, (1,))
+    assert full.valid[1][reach // 2 : reach].all()  # end samples the full call keeps
+    away = method.estimate_within(x, DT, (1,), reach, n - 1 - reach)
+    inside = slice(reach, n - reach)
+    assert np.array_equal(away[1][inside], full[1][inside])
+    assert np.isnan(away[1][:reach]).all() and np.isnan(away[1][n - reach :]).all()
+    assert not away.valid[1][:reach].any() and away.valid[1][inside].all()
+    near = method.estimate_within(x, DT, (1,), reach - 1, n - 1 - reach)
+    assert np.array_equal(near[1], full[1], equal_nan=True)
+    assert np.array_equal(near.valid[1], full.valid[1])
