@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy import linalg, signal
@@ -244,6 +245,48 @@ def _modes(matrix: np.ndarray):
     return eigenvalues, vectors, np.linalg.inv(vectors), np.flatnonzero(eigenvalues.imag >= 0)
 
 
+def _mode_twins(poles: np.ndarray, values: np.ndarray, kept: np.ndarray) -> np.ndarray:
+    """Values of every mode from those of the ``kept`` ones (each complex pair's twin: its
+    conjugate)."""
+    full = np.zeros(poles.size, dtype=complex)
+    full[kept] = values
+    for mode in kept:
+        if poles[mode].imag > 0:
+            full[int(np.argmin(abs(poles - np.conj(poles[mode]))))] = np.conj(full[mode])
+    return full
+
+
+class _SmootherModes(NamedTuple):
+    """The steady filter and smoother in their eigenbases (:func:`_smoother_modes`)."""
+
+    poles: np.ndarray  # λ, of A = (I - KH)F
+    vectors: np.ndarray  # V
+    inverse: np.ndarray  # V⁻¹
+    forward: np.ndarray  # the modes of A run (one of each conjugate pair)
+    drive: np.ndarray  # d = V⁻¹K
+    poles_c: np.ndarray  # μ, of C
+    vectors_c: np.ndarray  # W
+    inverse_c: np.ndarray  # W⁻¹
+    backward: np.ndarray  # the modes of C run
+    coupling: np.ndarray  # c_il = (W⁻¹(I - CF)V)_il / (1 - λ_l μ_i)
+    scale: np.ndarray  # b_i μ_i, b = c d
+
+
+def _smoother_modes(steady: SteadyState, F: np.ndarray) -> _SmootherModes:
+    """The eigendecompositions and partial-fraction coefficients both steady passes
+    (:func:`_steady_passes`, :func:`_blocked_steady_passes`) run on."""
+    m = F.shape[0]
+    transition = F - np.outer(steady.filter_gain, F[0])
+    poles, vectors, inverse, forward = _modes(transition)
+    drive = inverse @ steady.filter_gain
+    poles_c, vectors_c, inverse_c, backward = _modes(steady.smoother_gain)
+    mixing = inverse_c @ (np.eye(m) - steady.smoother_gain @ F) @ vectors
+    coupling = mixing / (1 - poles_c[:, None] * poles[None, :])
+    scale = (coupling @ drive) * poles_c
+    return _SmootherModes(poles, vectors, inverse, forward, drive, poles_c, vectors_c,
+                          inverse_c, backward, coupling, scale)  # fmt: skip
+
+
 def _first_order(pole: complex, x: np.ndarray, before: np.ndarray, out: np.ndarray, backward):
     r""":math:`f_k = \lambda f_{k-1} + x_k` along axis 0 (k = 0..L-1) from :math:`f_{-1}` =
     ``before``, written as real signals s_r into the rows of ``out`` (each of length L + 1,
@@ -275,8 +318,9 @@ def _first_order(pole: complex, x: np.ndarray, before: np.ndarray, out: np.ndarr
 
 
 def _steady_passes(
-    z: np.ndarray, steady: SteadyState, F: np.ndarray, before: np.ndarray, components
-) -> tuple[np.ndarray, np.ndarray]:
+    z: np.ndarray, steady: SteadyState, F: np.ndarray, before: np.ndarray, components,
+    modes: _SmootherModes | None = None,
+) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """The steady filter and smoother over a record z (N, channels) whose filter starts from
     the filtered state ``before`` (m, channels):
 
@@ -301,14 +345,12 @@ def _steady_passes(
     C, each on z itself, one per conjugate pair (its twin is its conjugate) in real arithmetic
     (:func:`_first_order`), and each smoothed component a real combination of their outputs
     (one matrix product). Returns the smoothed ``components`` (len(components), N, channels)
-    and the whole smoothed state at k = 0 (m, channels)."""
+    and the whole smoothed state at k = 0 (m, channels). ``modes``: :func:`_smoother_modes`
+    of ``steady`` and F, if the caller has them."""
     m = F.shape[0]
-    transition = F - np.outer(steady.filter_gain, F[0])
-    poles, vectors, inverse, forward = _modes(transition)
-    drive, start = inverse @ steady.filter_gain, inverse @ before
-    poles_c, vectors_c, inverse_c, backward = _modes(steady.smoother_gain)
-    mixing = inverse_c @ (np.eye(m) - steady.smoother_gain @ F) @ vectors
-    coupling = mixing / (1 - poles_c[:, None] * poles[None, :])  # c_il
+    poles, vectors, inverse, forward, drive, poles_c, vectors_c, inverse_c, backward, \
+        coupling, scale = _smoother_modes(steady, F) if modes is None else modes  # fmt: skip
+    start = inverse @ before
     wanted = np.r_[np.asarray(components, dtype=int), np.arange(m)]  # then the state at k = 0
     # s̃_j = Re( Σ_l (W c)_jl y_l + Σ_i W_ji σ_i ), each pair's twin its conjugate
     n, channels = z.shape
@@ -329,7 +371,6 @@ def _steady_passes(
     last = (vectors @ last_modes).real  # ŝ_{N-1}
     end = inverse_c @ last - coupling @ last_modes  # σ_{N-1}
     reversed_z = z[:0:-1]  # z_{N-1}, ..., z_1
-    scale = (coupling @ drive) * poles_c  # b_i μ_i
     for i in backward:
         # σ_{i,k} = b_i μ_i χ_{N-1-k}: χ_κ = μ_i χ_{κ-1} + z_{N-κ} from χ_0 = σ_{i,N-1} / (b_i μ_i),
         # written reversed into the rows' samples 1..N (k = 0..N-1)
@@ -356,17 +397,6 @@ BLOCKED_FROM = 2**16
 (:func:`_blocked_steady_passes`) rather than by recursions (:func:`_steady_passes`): beyond
 every record the studies use (9301 samples at most), and beyond the ends check's probes of
 any setting with ``bandwidth_hz * dt`` >= 2e-4, whose results thus keep their bits."""
-
-
-def _mode_twins(poles: np.ndarray, values: np.ndarray, kept: np.ndarray) -> np.ndarray:
-    """Values of every mode from those of the ``kept`` ones (each complex pair's twin: its
-    conjugate)."""
-    full = np.zeros(poles.size, dtype=complex)
-    full[kept] = values
-    for mode in kept:
-        if poles[mode].imag > 0:
-            full[int(np.argmin(abs(poles - np.conj(poles[mode]))))] = np.conj(full[mode])
-    return full
 
 
 def _blocked_steady_passes(
@@ -400,13 +430,9 @@ def _blocked_steady_passes(
     block = BLOCK_STEPS
     count = (n - 1) // block  # whole blocks; the tail keeps 1..B samples
     head = count * block
-    transition = F - np.outer(steady.filter_gain, F[0])
-    poles, vectors, inverse, forward = _modes(transition)
-    drive = inverse @ steady.filter_gain
-    poles_c, vectors_c, inverse_c, backward = _modes(steady.smoother_gain)
-    mixing = inverse_c @ (np.eye(m) - steady.smoother_gain @ F) @ vectors
-    coupling = mixing / (1 - poles_c[:, None] * poles[None, :])  # c_il
-    scale = (coupling @ drive) * poles_c  # b_i mu_i
+    modes = _smoother_modes(steady, F)
+    poles, vectors, inverse, forward, drive, poles_c, vectors_c, inverse_c, backward, \
+        coupling, scale = modes  # fmt: skip
     lam, mu = poles[forward], poles_c[backward]
     twice_f = np.where(lam.imag > 0, 2.0, 1.0)
     twice_b = np.where(mu.imag > 0, 2.0, 1.0)
@@ -448,7 +474,7 @@ def _blocked_steady_passes(
         last = _mode_twins(poles, drive[forward] * ends_f[-1], forward)
         filtered = (vectors @ last).real[:, None]
         tail_out, following = _steady_passes(samples[head:, None], steady, F, filtered,
-                                             components)  # fmt: skip
+                                             components, modes)  # fmt: skip
         out[:, head:, channel] = tail_out[:, :, 0]
         # backward: rho at the tail's first sample from its smoothed state
         at_head = _mode_twins(poles, drive[forward] * (lam * ends_f[-1] + samples[head]), forward)
