@@ -116,14 +116,9 @@ class SavitzkyGolay(FirMethod):
         # the central filter alone: its values are those savitzky_golay_filter keeps inside
         # (it overwrites only the first and last half_width samples), the ends NaN; no end
         # evaluators, a third of a setting's cost in a tuning
-        values, valid = {}, {}
-        for order in orders:
-            if order > self.degree:
-                values[order] = np.zeros_like(x)
-                valid[order] = np.ones(x.shape[0], dtype=bool)
-                continue
-            values[order], valid[order] = apply_central_fir(x, self.taps(order, dt))
-        return values, valid
+        filtered = {order: apply_central_fir(x, self.taps(order, dt)) for order in orders}
+        return ({order: y for order, (y, _) in filtered.items()},
+                {order: keep for order, (_, keep) in filtered.items()})  # fmt: skip
 
     def _estimate_at(self, x, times, orders):
         span = times[-1] - times[0]
