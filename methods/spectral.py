@@ -109,6 +109,20 @@ def reflected_power_spectra(n: int, degree: int) -> np.ndarray:
     return spectra
 
 
+def derivative_factor(
+    bins: np.ndarray, period: int, dt: float, order: int, cutoff_hz: float, rolloff: float
+) -> np.ndarray:
+    r""":math:`(i 2\pi f)^n H(f)` at the rfft ``bins`` (integers) of a record of ``period``
+    samples, :math:`f = k / (L \Delta t)` as ``numpy.fft.rfftfreq`` computes it, H the
+    raised-cosine low-pass (:func:`raised_cosine_lowpass`); zero at the Nyquist bin of an odd
+    order (its derivative is not real)."""
+    f = bins * (1.0 / (period * dt))
+    factor = (2j * np.pi * f) ** order * raised_cosine_lowpass(f, cutoff_hz, rolloff)
+    if order % 2 and period % 2 == 0:
+        factor[bins == period // 2] = 0.0
+    return factor
+
+
 def spectral_derivatives(
     x: np.ndarray,
     dt: float,
@@ -138,7 +152,8 @@ def spectral_derivatives(
     flat = x.reshape(n, -1)
     period = extend(flat[:, :1], extension).shape[0]
     if period >= LEAN_PERIOD:
-        lean = _lean_derivatives(flat, dt, orders, cutoff_hz, rolloff, extension, fit_degree)
+        lean = _lean_derivatives(flat, dt, orders, cutoff_hz, rolloff, extension, fit_degree,
+                                 period)  # fmt: skip
         return {order: value.reshape(x.shape) for order, value in lean.items()}
     f = np.fft.rfftfreq(period, dt)
     gain = raised_cosine_lowpass(f, cutoff_hz, rolloff)
@@ -153,10 +168,9 @@ def spectral_derivatives(
         spectrum = np.fft.rfft(extend(flat - powers @ coefficients, extension), axis=0)
     span_s = (n - 1) * dt
     results = {}
+    bins = np.arange(f.size)
     for order in orders:
-        factor = (2j * np.pi * f) ** order * gain
-        if order % 2 and period % 2 == 0:
-            factor[-1] = 0.0
+        factor = derivative_factor(bins, period, dt, order, cutoff_hz, rolloff)
         estimate = np.fft.irfft(spectrum * factor[:, None], n=period, axis=0)[:n]
         trend = np.polynomial.polynomial.polyder(coefficients, order, axis=0)  # >= 1 row
         estimate = estimate + powers[:, : trend.shape[0]] @ trend / span_s**order
@@ -172,8 +186,10 @@ def _lean_derivatives(
     rolloff: float,
     extension: str,
     fit_degree: int,
+    period: int,
 ) -> dict[int, np.ndarray]:
-    r""":func:`spectral_derivatives` of the long record ``flat`` (n, channels) in bounded
+    r""":func:`spectral_derivatives` of the long record ``flat`` (n, channels), extended to
+    ``period`` samples (:func:`extend`), in bounded
     memory: channel by channel, the trend taken out in time, the filter's factor formed block
     by block inside the transforms (:func:`._fft.rfft`, :func:`._fft.irfft`). The
     ``odd-fitted`` trend solves the same least squares by its normal equations,
@@ -188,7 +204,6 @@ def _lean_derivatives(
     against 5.5 GiB and 50 s for the path of short records, whose transforms of 2e7 - 2
     samples run Bluestein's algorithm at twice that length."""
     n, channels = flat.shape
-    period = n if extension == "none" else 2 * (n - 1)
     tau = np.linspace(0.0, 1.0, n)
     span_s = (n - 1) * dt
     results = {}
@@ -209,17 +224,11 @@ def _lean_derivatives(
         spectrum = _fft.rfft(detrended, REFLECTION[extension])
         del detrended
         for order in orders:
-
-            def factor(k, order=order):
-                f = k / (period * dt)
-                value = (2 * np.pi * f) ** order * raised_cosine_lowpass(f, cutoff_hz, rolloff)
-                if order % 2 and period % 2 == 0:
-                    value[k == period // 2] = 0.0  # the Nyquist bin of odd derivatives
-                return value * 1j**order
-
             if order not in results:
                 results[order] = np.empty((n, channels))
-            estimate = _fft.irfft(spectrum, period, n, factor)
+            estimate = _fft.irfft(spectrum, period, n, functools.partial(
+                derivative_factor, period=period, dt=dt, order=order, cutoff_hz=cutoff_hz,
+                rolloff=rolloff))  # fmt: skip
             trend = np.polynomial.polynomial.polyder(coefficients, order)
             estimate += np.polynomial.polynomial.polyval(tau, trend) / span_s**order
             results[order][:, channel] = estimate
