@@ -69,11 +69,33 @@ def _evaluation(r: np.ndarray, at_u: np.ndarray, degree: int, order: int) -> np.
     # of legder(I) holds the Legendre coefficients of P_k^(n)).
     if order > degree:
         derivative_rows = np.zeros((at_u.size, degree + 1))
+    elif at_u.size == 1:
+        derivative_rows = _derivative_rows_at(float(at_u[0]), degree, order)
     else:
-        derivative_rows = legendre.legvander(at_u, degree - order) @ legendre.legder(
-            np.eye(degree + 1), order
+        derivative_rows = legendre.legvander(at_u, degree - order) @ _legendre_derivatives(
+            degree, order
         )
     return np.linalg.solve(r.T, derivative_rows.T).T
+
+
+@functools.lru_cache(maxsize=256)
+def _legendre_derivatives(degree: int, order: int) -> np.ndarray:
+    """``legder(I, order)``: column k holds the Legendre coefficients of the ``order``-th
+    derivative of P_k, k = 0..``degree`` (read-only; a tuning asks for the same few)."""
+    matrix = legendre.legder(np.eye(degree + 1), order)
+    matrix.setflags(write=False)
+    return matrix
+
+
+@functools.lru_cache(maxsize=256)
+def _derivative_rows_at(at_u: float, degree: int, order: int) -> np.ndarray:
+    """The row of :func:`_evaluation` before the solve, for one evaluation point (the centre,
+    for every central filter): cached, read-only, the same numbers as computed afresh."""
+    rows = legendre.legvander(np.array([at_u]), degree - order) @ _legendre_derivatives(
+        degree, order
+    )
+    rows.setflags(write=False)
+    return rows
 
 
 def end_evaluators(

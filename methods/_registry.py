@@ -498,8 +498,10 @@ class FirMethod(Method):
         return values, valid
 
 
+@functools.cache
 def params_of(cls: type[Method]) -> tuple[Param, ...]:
-    """The parameter specifications of a method class, in declaration order."""
+    """The parameter specifications of a method class, in declaration order (immutable, built
+    once per class: every construction and every tuner step reads them)."""
     specs = []
     for field in dataclasses.fields(cls):
         spec = field.metadata.get("param")

@@ -13,6 +13,7 @@ References
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -86,9 +87,10 @@ class Realisation:
         object.__setattr__(self, "seed", check_seed(self.seed))
         object.__setattr__(self, "interior", interior)
 
-    @property
+    @functools.cached_property
     def uniform(self) -> bool:
-        """True when the samples lie on the grid ``t[0] + dt_s * arange(n)`` (to 1e-9 dt)."""
+        """True when the samples lie on the grid ``t[0] + dt_s * arange(n)`` (to 1e-9 dt).
+        Computed once (``t`` is read-only): a tuner asks at every setting."""
         grid = self.t[0] + self.dt_s * np.arange(self.t.shape[0])
         return bool(np.max(np.abs(self.t - grid)) <= 1e-9 * self.dt_s)
 

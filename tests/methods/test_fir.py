@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from scipy import signal as sps
 
+from diffbench.methods import _fir
 from diffbench.methods._fir import apply_central_fir, apply_central_firs
 
 
@@ -39,3 +40,20 @@ def test_kernels_sharing_one_overlap_add_equal_one_oaconvolve_each():
         scale = np.nanmax(np.abs(reference))
         np.testing.assert_allclose(y, reference, rtol=0, atol=1e-12 * scale)
         assert np.array_equal(valid, np.isfinite(reference[:, 0]))
+
+
+@pytest.mark.parametrize("channels", [(), (2,), (48,)])
+def test_long_kernels_equal_oaconvolve_bit_for_bit_on_either_side_of_its_one_block_rule(channels):
+    # around 1000 samples scipy's overlap-add is one block from 121 taps on (its fftconvolve,
+    # which apply_central_fir runs itself); shorter kernels or longer records take blocks
+    rng = np.random.default_rng(5)
+    one_block = 0
+    for n, size in [(1000, 33), (1000, 101), (1000, 121), (1000, 185), (1001, 499),
+                    (999, 999), (4097, 301), (20_000, 211), (257, 255)]:  # fmt: skip
+        x = rng.standard_normal((n, *channels))
+        taps = rng.standard_normal(size)
+        y, valid = apply_central_fir(x, taps)
+        np.testing.assert_array_equal(y, _scipy_central(x, taps, "oa"))
+        assert valid.sum() == n - 2 * (size // 2)
+        one_block += _fir._one_block(n, size) and n != size
+    assert one_block == 4  # (1000, 121), (1000, 185), (1001, 499), (257, 255): the direct path
