@@ -4,6 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from diffbench import methods
 from diffbench.bench import timing
 
 
@@ -61,3 +62,17 @@ def test_the_speed_ratios_check_that_ours_and_the_peers_agree(tmp_path):
     )
     assert "| Kalman smoother, per sample | kalman (paper-signal preset) | filterpy " in markdown
     assert "| Jacobi orders 0-2, one call |" in markdown
+
+
+def test_forget_settings_empties_the_per_setting_caches_and_keeps_the_registry():
+    from diffbench.methods import _ends, _registry, butterworth
+
+    method = methods.get("butterworth", order=4, cutoff_hz=20.0)
+    method(np.random.default_rng(0).standard_normal(500), 1e-3)
+    _registry.params_of(type(method))
+    assert _ends._trusted.cache_info().currsize > 0
+    assert butterworth._butter_sos.cache_info().currsize > 0
+    timing.forget_settings()
+    assert _ends._trusted.cache_info().currsize == 0
+    assert butterworth._butter_sos.cache_info().currsize == 0
+    assert _registry.params_of.cache_info().currsize > 0  # unbounded: not a setting's

@@ -61,3 +61,16 @@ def test_pynumdiff_optimize_savgoldiff(benchmark, record):
     params, value = benchmark.pedantic(run, rounds=1, iterations=1)
     _, derivative = pynumdiff.savgoldiff(x, DT, **params)
     assert _rmse(derivative, record) == pytest.approx(value, rel=1e-9)
+
+
+def test_the_tuning_ratio_row_times_a_fresh_tuning_against_the_fastest_peer_run():
+    (row,) = timing.tuning_against_pynumdiff(names=["savitzky_golay"], repeats=2)
+    record = timing._paper_signal_head(1000, 150)
+    again = tuning.tune("savitzky_golay", record, 1, "oracle")
+    # the timed runs found what a tuning finds (their caches emptied first)
+    assert (row["ours_params"], row["ours_rmse"]) == (again.params, again.loss)
+    assert row["ours_evaluations"] == again.evaluations
+    assert row["peer_s"] == min(row["peer_serial_s"], row["peer_pool_s"])
+    assert row["ratio"] == pytest.approx(row["peer_s"] / row["ours_s"])
+    _, derivative = pynumdiff.savgoldiff(np.asarray(record.x), DT, **row["peer_params"])
+    assert _rmse(derivative, record) == pytest.approx(row["peer_rmse"], rel=1e-12)
