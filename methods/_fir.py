@@ -7,6 +7,7 @@ from scipy import fft as sp_fft
 from scipy import signal as sps
 
 _OVERLAP_ADD_FROM = 32  # taps; shorter kernels are convolved directly
+_SLICED_UP_TO = 3  # taps; up to this many, summed from shifted slices
 
 try:  # scipy's rule for when oaconvolve is one FFT convolution (see _oaconvolve_same)
     from scipy.signal._signaltools import _calc_oa_lens
@@ -16,7 +17,6 @@ try:  # scipy's rule for when oaconvolve is one FFT convolution (see _oaconvolve
 
 except ImportError:  # a scipy without it: oaconvolve throughout
     _one_block = None
-_SLICED_UP_TO = 3  # taps; up to this many, summed from shifted slices
 
 
 def central_mask(n_samples: int, half_width: int) -> np.ndarray:
