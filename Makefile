@@ -87,8 +87,8 @@ lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 
-# two worker processes (pytest-xdist): the suite takes about 4-5 min on 2 cores (3.9 min on
-# 2026-11-27, nothing else running; 8.6-9.4 min on a slower machine)
+# two worker processes (pytest-xdist): the suite takes about 4-5 min on 2 cores (4.0 min on
+# 2026-11-28, nothing else running; 8.6-9.4 min on a slower machine)
 test: lint
 	$(BIN)/python -m pytest -q -n 2 --benchmark-disable
 
