@@ -72,10 +72,14 @@ def _evaluation(r: np.ndarray, at_u: np.ndarray, degree: int, order: int) -> np.
     elif at_u.size == 1:
         derivative_rows = _derivative_rows_at(float(at_u[0]), degree, order)
     else:
-        derivative_rows = legendre.legvander(at_u, degree - order) @ _legendre_derivatives(
-            degree, order
-        )
+        derivative_rows = _derivative_rows(at_u, degree, order)
     return np.linalg.solve(r.T, derivative_rows.T).T
+
+
+def _derivative_rows(at_u: np.ndarray, degree: int, order: int) -> np.ndarray:
+    """The ``order``-th derivative (in u) of each Legendre polynomial P_0..P_``degree`` at each
+    of ``at_u``: shape ``(len(at_u), degree + 1)``."""
+    return legendre.legvander(at_u, degree - order) @ _legendre_derivatives(degree, order)
 
 
 @functools.lru_cache(maxsize=256)
@@ -89,11 +93,9 @@ def _legendre_derivatives(degree: int, order: int) -> np.ndarray:
 
 @functools.lru_cache(maxsize=256)
 def _derivative_rows_at(at_u: float, degree: int, order: int) -> np.ndarray:
-    """The row of :func:`_evaluation` before the solve, for one evaluation point (the centre,
-    for every central filter): cached, read-only, the same numbers as computed afresh."""
-    rows = legendre.legvander(np.array([at_u]), degree - order) @ _legendre_derivatives(
-        degree, order
-    )
+    """:func:`_derivative_rows` at one point (the centre, for every central filter): cached,
+    read-only, the same numbers as computed afresh."""
+    rows = _derivative_rows(np.array([at_u]), degree, order)
     rows.setflags(write=False)
     return rows
 
