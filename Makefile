@@ -6,7 +6,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.diffbench-installed
 SEEDS ?= 20
 
-.PHONY: bench studies timing test lint check-install clean-venv
+.PHONY: bench studies timing test test-kernels lint check-install clean-venv
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 10) else "diffbench needs Python >= 3.10; set PYTHON=python3.x")'
@@ -91,6 +91,17 @@ lint: $(STAMP)
 # 2026-11-28, nothing else running; 8.6-9.4 min on a slower machine)
 test: lint
 	$(BIN)/python -m pytest -q -n 2 --benchmark-disable
+
+# the numerical suites under OpenBLAS's Haswell kernel (a CPU without AVX-512) and Sandybridge
+# kernel (AVX): every tolerance must come from the computation, not from one kernel's last bits
+KERNELS ?= Haswell Sandybridge
+NUMERICAL_SUITES ?= tests/methods tests/signals
+test-kernels: $(STAMP)
+	for kernel in $(KERNELS); do \
+	  echo "OPENBLAS_CORETYPE=$$kernel"; \
+	  OPENBLAS_CORETYPE=$$kernel $(BIN)/python -m pytest -q -n 2 --benchmark-disable \
+	    -p no:cacheprovider $(NUMERICAL_SUITES) || exit 1; \
+	done
 
 # pip install . beside PyPI's `bench` 2.8 and `signals` 0.0.2 (same top-level names as our
 # folders), then `diffbench list` and the tests against that installation.
