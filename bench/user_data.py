@@ -132,7 +132,10 @@ def read_record(
             f"length, its time and memory growing in proportion: above {LONG_RECORD:.0e} "
             "samples, try it on a representative stretch first"
         )
-    x = np.column_stack([_numbers(table, name, path, kind) for name in columns])
+    if len(columns) == 1:  # a view: no copy of a long record
+        x = _numbers(table, columns[0], path, kind)[:, np.newaxis]
+    else:
+        x = np.column_stack([_numbers(table, name, path, kind) for name in columns])
     nominal = None if dt is None else check_dt(dt)
     if time_column is None:
         x, nominal = check_signal(x, nominal, min_samples=MIN_SAMPLES)
@@ -148,8 +151,9 @@ def read_record(
             f"({float(times[index])!r}) {what} the row before ({float(times[index - 1])!r}); "
             "sort the rows and drop duplicates"
         )
-    median = float(np.median(steps))
+    median = float(np.median(steps.copy(), overwrite_input=True))  # one copy, partitioned
     gap_note = _check_gaps(path, time_column, times, steps, median)
+    del steps
     if gap_note:
         notes.append(gap_note)
     uniform = is_uniform(times)
