@@ -6,6 +6,20 @@ spectrum whose truth is known (:mod:`diffbench.bench.surrogates`), tunes every m
 of them with the oracle criterion, scores the tuned setting on the others, and ranks the
 methods by that predicted RMSE (mean ± standard deviation over the scoring surrogates). Linear
 or not, native or a peer's: every method is tuned and scored the same way.
+
+The record is divided by its half range first (:func:`record_scale`) and every error scaled
+back: the recommendation for ``c·x`` is that for ``x``, its errors ``c`` times as large, from
+``c = 1e-300`` to ``1e300`` (unscaled, the periodogram of such a record under- or overflows).
+The settings are those for the scaled record: the same for a linear method, and for a method
+whose settings depend on the amplitude (a total-variation penalty) those of ``x / scale``; the
+estimates written for the record are computed on it that way and scaled back.
+
+The error is predicted over the *scored* samples (default all but the first and last 5 %)
+that the method marks valid; the derivatives file written for a record flags exactly those
+as valid. A method's own mask may keep its last samples while they are many times worse than
+its middle (a spectral method's, on a record whose ends do not meet: 10 to 20 times), and
+the surrogates, whose ends are not the record's, do not predict them: they are written, but
+flagged.
 """
 
 from __future__ import annotations
@@ -21,7 +35,7 @@ import pandas as pd
 from diffbench import methods
 from diffbench.bench.scores import error_metrics
 from diffbench.bench.spectrum import RecordSpectrum, record_spectrum
-from diffbench.bench.surrogates import surrogate_records
+from diffbench.bench.surrogates import default_scored, surrogate_records
 from diffbench.bench.tuning import tune
 
 TUNING_SURROGATES = 2
@@ -38,19 +52,35 @@ COLUMNS = (
 
 @dataclass(frozen=True)
 class Recommendation:
-    """The record's spectrum and one row per (order, method): its tuned ``params``, predicted
-    interior RMSE ``predicted_rmse`` ± ``spread`` (standard deviation over the scoring
-    surrogates), its ``coverage`` of the record, and its ``rank`` among the methods (1: best;
-    methods that failed have no rank and say why in ``params``)."""
+    """The spectrum of the record divided by ``scale`` and one row per (order, method): its
+    tuned ``params`` (for the record divided by ``scale``), predicted RMSE over the scored
+    samples ``predicted_rmse`` ± ``spread`` (standard deviation over the scoring surrogates;
+    in the record's units), its ``coverage`` of the record (the fraction it marks valid), and
+    its ``rank`` among the methods (1: best; methods that failed have no rank and say why in
+    ``params``)."""
 
     spectrum: RecordSpectrum
     table: pd.DataFrame
+    scale: float = 1.0
+
+    @property
+    def noise_std(self) -> float:
+        """The white-noise standard deviation read off the record, in its units."""
+        return self.spectrum.noise_std * self.scale
 
     def best(self, order: int) -> tuple[str, dict]:
         """The name and settings of the best method for the derivative of ``order``."""
         rows = self.table[(self.table["order"] == order) & (self.table["rank"] == 1)]
         if rows.empty:
-            raise ValueError(f"no method was recommended for order {order}")
+            failed = self.table[self.table["order"] == order]
+            why = "; ".join(
+                f"{name}: {params}"
+                for name, params in zip(failed["method"], failed["params"], strict=True)
+            )
+            raise ValueError(
+                f"no method could be recommended for order {order} on this record "
+                f"({why or 'no method given'})"
+            )
         row = rows.iloc[0]
         return row["method"], row["params"]
 
@@ -76,6 +106,8 @@ def recommend(
     if samples.ndim != 1:
         raise ValueError(f"`x` must be one channel (1-D), got shape {samples.shape}")
     samples, dt = methods.check_signal(samples, dt, min_samples=16)
+    scale = record_scale(samples)
+    samples = samples / scale
     spectrum = record_spectrum(samples, dt)
     drawn = surrogate_records(
         spectrum, samples, dt, TUNING_SURROGATES + SCORING_SURROGATES, seed=seed, scored=scored
@@ -86,9 +118,34 @@ def recommend(
         for order in orders:
             rows.append(_tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed))
     table = pd.DataFrame(rows, columns=list(COLUMNS))
+    for column in ("predicted_rmse", "spread"):
+        table[column] = table[column] * scale
     table["rank"] = table.groupby("order")["predicted_rmse"].rank(method="first", na_option="keep")
     table = table.sort_values(["order", "rank"], na_position="last").reset_index(drop=True)
-    return Recommendation(spectrum, table)
+    return Recommendation(spectrum, table, scale)
+
+
+def record_scale(x: np.ndarray) -> float:
+    """Half the range of the finite record ``x``, max/2 − min/2 (no overflow up to the
+    largest float); its largest magnitude if that is 0 (a constant), 1 for zeros."""
+    half_range = float(np.max(x) / 2 - np.min(x) / 2)
+    if half_range > 0:
+        return half_range
+    largest = float(np.max(np.abs(x)))
+    return largest if largest > 0 else 1.0
+
+
+def scaled_estimate(estimate: methods.Estimate, scale: float) -> methods.Estimate:
+    """``estimate`` (of a record divided by ``scale``) multiplied back by ``scale``; a
+    ``ValueError`` if a valid value then leaves the floating-point range."""
+    values = {order: value * scale for order, value in estimate.values.items()}
+    for order, value in values.items():
+        if not np.all(np.isfinite(value[estimate.valid[order]])):
+            raise ValueError(
+                f"the derivative of order {order} of this record exceeds the floating-point "
+                f"range (about {np.finfo(np.float64).max:.3g}): give the record in smaller units"
+            )
+    return methods.Estimate(values, dict(estimate.valid))
 
 
 def _tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed) -> dict:
@@ -97,9 +154,13 @@ def _tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed) -> di
     try:
         result = tune(name, tuning, order, "oracle", max_evaluations=max_evaluations, seed=seed)
     except ValueError as error:
-        return {**row, "params": f"not tuned: {error}", "predicted_rmse": math.nan,
-                "spread": math.nan, "coverage": math.nan,
-                "seconds": time.perf_counter() - start}  # fmt: skip
+        failed = dict.fromkeys(("predicted_rmse", "spread", "coverage"), math.nan)
+        return {
+            **row,
+            **failed,
+            "params": f"not tuned: {error}",
+            "seconds": time.perf_counter() - start,
+        }
     method = methods.get(name, **result.params)
     errors, coverage = [], []
     for realisation in scoring:
@@ -130,8 +191,10 @@ def recommend_record(record, names=None, orders=(1, 2), seed=0, max_evaluations=
     """:func:`recommend` for each channel of a :class:`~diffbench.bench.user_data.UserRecord`,
     and the best method's estimates on the record itself (at its time stamps when it has
     irregular ones; the recommendation then runs on the record resampled, as a resampled
-    method's is, onto the grid of its span with the step nearest its nominal one). Returns
-    ``{channel: (Recommendation, {order: Estimate})}``."""
+    method's is, onto the grid of its span with the step nearest its nominal one), computed on
+    the channel divided by the recommendation's ``scale`` and scaled back. Returns
+    ``{channel: (Recommendation, {order: Estimate})}``; a ``ValueError`` when no method could
+    be recommended for an order."""
     irregular = record.t is not None and not record.uniform
     if irregular:  # onto the grid a resampled method would use (methods._time_stamps)
         grid, grid_step = methods.uniform_grid(record.t, record.dt_s)
@@ -145,26 +208,42 @@ def recommend_record(record, names=None, orders=(1, 2), seed=0, max_evaluations=
         for order in orders:
             name, params = recommendation.best(order)
             stamps = record.t if irregular else None
-            estimates[order] = methods.get(name, **params)(x, record.dt_s, (0, order), t=stamps)
+            method = methods.get(name, **params)
+            scale = recommendation.scale
+            estimates[order] = scaled_estimate(
+                method(x / scale, record.dt_s, (0, order), t=stamps), scale
+            )
         results[channel] = (recommendation, estimates)
     return results
 
 
 def write_recommendation(record, results, out: Path) -> list[Path]:
     """``ranking.md``/``.csv`` (every method per channel and order, best first),
-    ``derivatives.csv`` (the record's time, and per channel its samples and the best
-    method's smoothed signal, ẋ and ẍ, empty where masked) and ``recommend.png`` (per
-    channel: the samples and the smoothed signal, ẋ, and the periodogram with the noise floor
-    and band) in ``out``."""
+    ``derivatives.csv`` (the record's time, and per channel its samples and the best method's
+    smoothed signal, ẋ and ẍ, empty where the method masks them, each with its ``_valid``
+    column: 1 on the samples the predicted RMSE is for, those the method marks valid among the
+    scored ones; 0 elsewhere, the ends it estimates included) and ``recommend.png`` (per channel:
+    the samples and the smoothed signal, ẋ, and the periodogram with the noise floor and band)
+    in ``out``. What reading the record warned about (``record.notes``) heads ``ranking.md``.
+    """
     from diffbench.bench.tables import markdown_table
 
     out.mkdir(parents=True, exist_ok=True)
     frames, header = [], [f"# Recommendation for {record.source}", ""]
+    header += [f"**Warning:** {note}" for note in getattr(record, "notes", ())]
+    if len(header) > 2:
+        header.append("")
     for channel, (recommendation, _) in results.items():
         spectrum = recommendation.spectrum
+        scaled = (
+            f"; tuned on the record divided by {recommendation.scale:.6g} (an "
+            "amplitude-dependent setting, e.g. a TV penalty, is for that)"
+            if recommendation.scale != 1.0
+            else ""
+        )
         header.append(
-            f"- `{channel}`: white-noise std {spectrum.noise_std:.4g}, signal band up to "
-            f"{spectrum.band_hz:.4g} Hz (from the record's periodogram)"
+            f"- `{channel}`: white-noise std {recommendation.noise_std:.4g}, signal band up to "
+            f"{spectrum.band_hz:.4g} Hz (from the record's periodogram){scaled}"
         )
         frame = recommendation.table.copy()
         frame.insert(0, "channel", channel)
@@ -187,22 +266,40 @@ def write_recommendation(record, results, out: Path) -> list[Path]:
     note = (
         "Each method tuned on surrogate records with the record's spectrum and a known truth "
         f"({TUNING_SURROGATES}), scored on {SCORING_SURROGATES} others: the predicted RMSE "
-        "is their mean ± standard deviation, on all but the first and last 5 % of the record."
+        "is their mean ± standard deviation, on all but the first and last 5 % of the record: "
+        "the samples flagged 1 in derivatives.csv's `_valid` columns. The others (the ends a "
+        "method estimates, often many times worse than its middle) are written but flagged 0: "
+        "no error is predicted for them."
     )
     (out / "ranking.md").write_text("\n".join(header) + "\n\n" + markdown_table(shown)
                                     + "\n\n" + note + "\n")  # fmt: skip
     time = record.t if record.t is not None else np.arange(record.x.shape[0]) * record.dt_s
     columns = {"time_s": time}
+    scored = _scored(record)
     for index, (channel, (_, estimates)) in enumerate(results.items()):
         columns[channel] = record.x[:, index]
         first = estimates[min(estimates)]
         columns[f"{channel}_smoothed"] = first[0]
+        columns[f"{channel}_smoothed_valid"] = (first.valid[0] & scored).astype(np.int8)
         for order, estimate in estimates.items():
             columns[f"{channel}_d{order}"] = estimate[order]
+            columns[f"{channel}_d{order}_valid"] = (estimate.valid[order] & scored).astype(np.int8)
     pd.DataFrame(columns).to_csv(out / "derivatives.csv", index=False)  # exact round trip
     _figure(record, results, time, out / "recommend.png")
     return [out / "ranking.md", out / "ranking.csv", out / "derivatives.csv",
             out / "recommend.png"]  # fmt: skip
+
+
+def _scored(record) -> np.ndarray:
+    """The samples of ``record`` the prediction is for: all but ``END_FRACTION`` of
+    the record at either end (of the grid it is resampled onto when its stamps are
+    irregular)."""
+    n_samples = record.x.shape[0]
+    if record.t is None or record.uniform:
+        return default_scored(n_samples)
+    grid, _ = methods.uniform_grid(record.t, record.dt_s)
+    inside = grid[default_scored(grid.size)]
+    return (record.t >= inside[0]) & (record.t <= inside[-1])
 
 
 def _settings(params) -> str:
@@ -235,10 +332,11 @@ def _figure(record, results, time, path: Path) -> None:
         spectrum = recommendation.spectrum
         axes[row, 2].loglog(spectrum.frequency_hz[1:], spectrum.power[1:], linewidth=0.7)
         axes[row, 2].axhline(spectrum.noise_floor, color="k", linestyle="--",
-                             label=f"noise floor (std {spectrum.noise_std:.3g})")  # fmt: skip
+                             label=f"noise floor (std {recommendation.noise_std:.3g})")  # fmt: skip
         axes[row, 2].axvline(spectrum.band_hz, color="r",
                              label=f"band {spectrum.band_hz:.3g} Hz")  # fmt: skip
-        axes[row, 2].set(xlabel="f [Hz]", ylabel="periodogram", title="spectrum")
+        scaled = f" of {channel} / {recommendation.scale:.3g}" if recommendation.scale != 1 else ""
+        axes[row, 2].set(xlabel="f [Hz]", ylabel=f"periodogram{scaled}", title="spectrum")
         axes[row, 2].legend()
     figure.tight_layout()
     figure.savefig(path, dpi=110)
@@ -295,7 +393,7 @@ def validate(scenario: str, names=VALIDATION_METHODS, seed: int = 0, max_evaluat
         true = _true_rmse(realisation, name, params, order)
         row = {
             "scenario": scenario, "seed": seed, "order": order,
-            "band_hz": guess_hz, "noise_std": advice.spectrum.noise_std,
+            "band_hz": guess_hz, "noise_std": advice.noise_std,
             "recommended": name, "params": _settings(params),
             "predicted_rmse": predicted["predicted_rmse"], "true_rmse": true,
             "oracle_best": best, "oracle_rmse": oracle[best],
