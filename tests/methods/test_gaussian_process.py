@@ -378,3 +378,29 @@ def test_bad_hyperparameters_are_refused_by_name(params, message):
         methods.get("gaussian_process_ml", length_scale_s=0.01)
     with pytest.raises(ValueError, match=r"`fit_samples` must be one of \{200, 400, 800\}"):
         methods.get("gaussian_process_ml", fit_samples=300)
+
+
+def test_the_data_only_estimate_uses_the_fit_rounded_to_its_grid():
+    """``gaussian_process_ml`` forms its posterior at the fitted length scale and noise ratio
+    rounded to the 1 % grid, so a perturbation of the record at rounding level (as another BLAS
+    kernel's rounding makes: it moves the flat likelihood's optimum by about 1e-8) leaves them
+    unchanged, and the estimate moves only by the posterior's linear response to it."""
+    from diffbench import signals
+    from diffbench.methods.gaussian_process import FIT_GRID, _canonical, snap_to_grid
+
+    realisation = signals.get_scenario("paper-signal").realise(3)
+    x, dt = realisation.x, realisation.dt_s
+    nudged = x * (1 + 1e-13 * np.random.default_rng(0).standard_normal(x.size))
+    fits = [fit_hyperparameters(_canonical(record), dt) for record in (x, nudged)]
+    assert fits[0][:2] != fits[1][:2]  # the raw optimum moves with rounding...
+    span = (x.size - 1) * dt
+    snapped = [(snap_to_grid(fit[0], dt, span), snap_to_grid(fit[1], 1e-3, 1e3)) for fit in fits]
+    assert snapped[0] == snapped[1]  # ...the grid point does not
+    for value in snapped[0]:  # a point of the grid, near the fit
+        assert np.log(value) / FIT_GRID == pytest.approx(round(np.log(value) / FIT_GRID), abs=1e-6)
+    assert snapped[0][0] == pytest.approx(fits[0][0], rel=FIT_GRID)
+    estimate = methods.get("gaussian_process_ml")(x, dt, orders=(0, 1, 2))
+    expected = posterior_derivatives(x, dt, (0, 1, 2), *snapped[0])
+    for order in (0, 1, 2):
+        valid = estimate.valid[order]
+        np.testing.assert_array_equal(estimate[order][valid], expected[order][valid])
