@@ -22,7 +22,7 @@ from diffbench import methods
 from diffbench.bench import executor, runner, uptodate
 from diffbench.bench.executor import Terminated, terminate_on_sigterm
 from diffbench.bench.provenance import provenance
-from diffbench.bench.store import Store, set_command
+from diffbench.bench.store import Store, StoreError, set_command
 from diffbench.bench.tasks import available_tasks, dfki_task, get_task
 
 EXIT_INTERNAL = 1
@@ -51,14 +51,27 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(message)
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {value}")
-    return value
+def _whole_number(low: int, high: int):
+    """An argparse type: a whole number in ``low .. high`` (the message gives the range)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or not low <= value <= high:
+            raise argparse.ArgumentTypeError(
+                f"must be a whole number >= {low} and <= {high:_}, got {text!r}"
+            )
+        return value
+
+    return parse
+
+
+_positive_int = _whole_number(1, runner.MAX_COUNT)
+_seed_count = _whole_number(1, runner.MAX_SEEDS)
+_tuning_seed_count = _whole_number(1, runner.MAX_TUNING_SEEDS)
+_jobs = _whole_number(1, executor.MAX_JOBS)
 
 
 def _record_length(text: str) -> int:
@@ -73,14 +86,7 @@ def _record_length(text: str) -> int:
     return int(value)
 
 
-def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 0, got {value}")
-    return value
+_seed = _whole_number(0, runner.MAX_SEED)
 
 
 def _finite_positive(text: str) -> float:
@@ -135,7 +141,7 @@ def build_parser() -> argparse.ArgumentParser:
     work = _Parser(add_help=False)
     work.add_argument(
         "--jobs",
-        type=_positive_int,
+        type=_jobs,
         default=1,
         help="local worker processes, or Dask workers with --executor dask (results identical "
         "to a serial run)",
@@ -158,7 +164,7 @@ def build_parser() -> argparse.ArgumentParser:
     seeds = _Parser(add_help=False)
     seeds.add_argument(
         "--seeds",
-        type=_positive_int,
+        type=_seed_count,
         default=None,
         help="scored seeds 0..N-1 (default: the task's, 10 for signals)",
     )
@@ -231,7 +237,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     tune.add_argument(
         "--tuning-seeds",
-        type=_positive_int,
+        type=_tuning_seed_count,
         default=1,
         metavar="K",
         help="average the tuning loss over K seeds, TUNING_SEED .. TUNING_SEED+K-1 (default 1)",
@@ -255,7 +261,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     # the sweeps that tune every method per task, then score it: grid and limit
     sweep = _Parser(add_help=False)
-    sweep.add_argument("--seeds", type=_positive_int, default=10, help="scored seeds 0..N-1")
+    sweep.add_argument("--seeds", type=_seed_count, default=10, help="scored seeds 0..N-1")
     sweep.add_argument(
         "--orders", type=_orders, default=[1, 2], help="derivatives tuned for (default 1,2)"
     )
@@ -296,7 +302,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     figures.add_argument(
         "--seeds",
-        type=_positive_int,
+        type=_seed_count,
         default=20,
         help="noise seeds of the error-against-position figure (default 20)",
     )
@@ -506,7 +512,10 @@ def _method_names(names) -> list[str] | None:
 
 
 def _open_store(out: Path) -> Store:
-    store = Store(out / "store")
+    try:
+        store = Store(out / "store")
+    except StoreError as error:
+        raise UsageError(str(error)) from None
     for item in store.set_aside:
         print(
             f"diffbench: warning: set aside {item} (kept in "
@@ -623,19 +632,24 @@ def _cmd_report(args) -> None:
         print(path)
 
 
-def _check_cutoff(cutoff_hz: float, task) -> None:
+def _check_cutoff(cutoff_hz: float, task, criteria, region: str) -> None:
+    from diffbench.bench import tuning
+
     realisation = task.tuning_data(0)
-    nyquist = 0.5 / realisation.dt_s
-    if not 0 < cutoff_hz < nyquist:
-        raise UsageError(
-            f"--cutoff-hz must lie strictly inside (0, {nyquist:g}) Hz, the "
-            f"Nyquist frequency of {task.name}; got {cutoff_hz:g}"
-        )
+    for criterion in criteria:
+        with user_input(f"--cutoff-hz on {task.name}: "):
+            tuning.check_cutoff(cutoff_hz, realisation, criterion, region)
 
 
 def _cmd_tune(args) -> None:
     task = _task(args.task)
     tuned_on = range(args.tuning_seed, args.tuning_seed + args.tuning_seeds)
+    if tuned_on[-1] > runner.MAX_SEED:
+        raise UsageError(
+            f"--tuning-seed {args.tuning_seed} with --tuning-seeds {args.tuning_seeds} goes "
+            f"past the largest seed {runner.MAX_SEED}; choose a tuning seed <= "
+            f"{runner.MAX_SEED - args.tuning_seeds + 1}"
+        )
     with user_input():
         seeds = task.seeds(args.seeds)
         task.tuning_data(tuned_on[-1])
@@ -653,7 +667,7 @@ def _cmd_tune(args) -> None:
         )
     data_only = [c for c in args.criteria if c in ("no-truth", "pynumdiff")]  # need f_c
     if data_only:
-        _check_cutoff(args.cutoff_hz, task)
+        _check_cutoff(args.cutoff_hz, task, data_only, args.region)
     jobs_list = []
     for criterion in args.criteria:
         for name in names:

@@ -29,6 +29,8 @@ from dataclasses import dataclass
 from typing import Any
 
 PARENT_POLL_S = 0.25
+MAX_JOBS = 1024
+"""The most worker processes (``--jobs``) a run starts."""
 
 
 @dataclass(frozen=True)

@@ -23,6 +23,15 @@ from diffbench.bench.executor import ordered_map
 from diffbench.bench.roles import Role
 from diffbench.bench.store import Store, canonical, cell_key, computation_key
 
+MAX_SEEDS = 10_000
+"""The most noise seeds a run scores (``--seeds``): each is one cell per entry."""
+MAX_TUNING_SEEDS = 100
+"""The most realisations one tuning averages its loss over (``--tuning-seeds``)."""
+MAX_SEED = 2**32 - 1
+"""The largest noise seed (a seed is any whole number from 0 to this)."""
+MAX_COUNT = 10**9
+"""The largest count any other option takes (``--budget``): beyond it a run never ends."""
+
 
 @dataclass(frozen=True, eq=False)
 class Cell:

@@ -70,6 +70,11 @@ class _BadRecord(ValueError):
     pass
 
 
+class StoreError(ValueError):
+    """A store this code cannot use as it is (another format version, not a store at all):
+    the message says what was found and what to do. Nothing is changed on disk."""
+
+
 @dataclasses.dataclass
 class _Run:
     """The provenance of this process's run, written once to each file it appends to."""
@@ -145,10 +150,13 @@ class RecordFile:
                 return "bad", None, f"header of another file ({text.strip()[:80]})"
             if record.get("version") != VERSION:
                 version = record.get("version")
-                raise ValueError(
-                    f"{self.path} was written by another diffbench store version ({version}); "
-                    f"this diffbench reads version {VERSION}: use a matching diffbench or "
-                    "another --out directory"
+                newer = isinstance(version, int) and version > VERSION
+                raise StoreError(
+                    f"{self.path} is a diffbench store of format version {version!r} "
+                    f"({'newer than' if newer else 'not'} what this diffbench reads: version "
+                    f"{VERSION}); read it with the diffbench that wrote it"
+                    f"{' (upgrade: pip install -U diffbench)' if newer else ''}, or give "
+                    "another --out directory (or move this store away) to start a new one"
                 )
             return "header", record, ""
         if kind == "run":
@@ -203,7 +211,7 @@ class RecordFile:
         if tail:
             bad.append((len(lines) + 1, tail, "torn last line (a write cut short)"))
         if bad and not header_seen and not self.records and not self.runs:
-            raise ValueError(
+            raise StoreError(
                 f"{self.path} is not a diffbench store and holds no diffbench record; "
                 "move it away or choose another --out directory"
             )
