@@ -1,6 +1,7 @@
 """The ``diffbench`` command line: a thin layer over the Python API.
 
-Exit codes: 0 done; 2 a usage error (bad input: one line on stderr, never a traceback); 1 an
+Exit codes: 0 done; 2 a usage error (bad input, or a machine that cannot take the output: a
+full disk, the file size limit, a read-only folder; one line on stderr, never a traceback); 1 an
 internal error (its traceback: a bug, never disguised as a usage error); 130 interrupted by
 Ctrl-C, 143 by SIGTERM (every finished result is stored; the same command resumes; no worker
 process is left behind); 141 when the reader of the output went away (``diffbench list | head``).
@@ -882,11 +883,44 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``diffbench`` console script; returns the exit code."""
     argv = list(sys.argv[1:] if argv is None else argv)
     previous = terminate_on_sigterm()
+    stdout = sys.stdout
+    if stdout is not None and stdout is sys.__stdout__:
+        sys.stdout = _NamedOutput(stdout)  # its OSErrors name it (e.g. `> /dev/full`)
     try:
         return _main(argv)
     finally:
         # called in-process (a test, a script), the caller keeps its own SIGTERM handling
         signal.signal(signal.SIGTERM, previous)
+        sys.stdout = stdout
+
+
+class _NamedOutput:
+    """The standard output, whose ``OSError`` names it as its file (Python's own names none)."""
+
+    def __init__(self, stream) -> None:
+        self._stream = stream
+
+    def _named(self, call, *args):
+        try:
+            return call(*args)
+        except BrokenPipeError:
+            raise
+        except OSError as error:
+            if error.errno is None or error.filename is not None:
+                raise
+            raise type(error)(error.errno, error.strerror, STDOUT_NAME) from None
+
+    def write(self, text: str) -> int:
+        return self._named(self._stream.write, text)
+
+    def flush(self) -> None:
+        return self._named(self._stream.flush)
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
+
+
+STDOUT_NAME = "the standard output"
 
 
 def _main(argv: list[str]) -> int:
@@ -901,12 +935,7 @@ def _main(argv: list[str]) -> int:
         print(f"diffbench: error: {message}", file=sys.stderr)
         return EXIT_USAGE
     except OSError as error:
-        if isinstance(error, BrokenPipeError):
-            return _broken_pipe()
-        if error.errno is not None and error.filename is not None:  # e.g. an unwritable --out
-            print(f"diffbench: error: {error.strerror}: {error.filename}", file=sys.stderr)
-            return EXIT_USAGE
-        raise
+        return _os_error(error)
     except KeyboardInterrupt:
         print("diffbench: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
@@ -917,16 +946,37 @@ def _main(argv: list[str]) -> int:
         return int(stop.code or 0) if not isinstance(stop.code, str) else EXIT_USAGE
     try:
         sys.stdout.flush()
-    except BrokenPipeError:
-        return _broken_pipe()
+    except OSError as error:
+        return _os_error(error)
     return 0
+
+
+def _os_error(error: OSError) -> int:
+    """An ``OSError`` the machine gave (the reader of the output gone, a disk full, the file
+    size limit, a read-only or unwritable folder): one line naming the file, and the exit
+    code; one without an error number is diffbench's bug, raised again (its traceback)."""
+    if isinstance(error, BrokenPipeError):
+        return _broken_pipe()
+    if error.errno is None:
+        raise error
+    name = error.filename
+    if name == STDOUT_NAME:
+        _silence_stdout()  # so that Python's own flush at exit does not fail again
+    where = f": {name}" if name is not None else " (writing a report or reading input)"
+    reason = error.strerror or os.strerror(error.errno)
+    print(f"diffbench: error: {reason}{where}", file=sys.stderr)
+    return EXIT_USAGE
+
+
+def _silence_stdout() -> None:
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
 
 
 def _broken_pipe() -> int:
     # The reader went away (e.g. `| head`): stop quietly, and keep Python's exit-time flush of
     # stdout from failing again (the pattern the Python documentation gives for SIGPIPE).
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, sys.stdout.fileno())
+    _silence_stdout()
     return EXIT_BROKEN_PIPE
 
 

@@ -26,6 +26,7 @@ Guarantees
 from __future__ import annotations
 
 import dataclasses
+import errno
 import json
 import os
 import uuid
@@ -152,11 +153,11 @@ class RecordFile:
                 version = record.get("version")
                 newer = isinstance(version, int) and version > VERSION
                 raise StoreError(
-                    f"{self.path} is a diffbench store of format version {version!r} "
-                    f"({'newer than' if newer else 'not'} what this diffbench reads: version "
-                    f"{VERSION}); read it with the diffbench that wrote it"
-                    f"{' (upgrade: pip install -U diffbench)' if newer else ''}, or give "
-                    "another --out directory (or move this store away) to start a new one"
+                    f"{self.path} was written by another diffbench store version: its header "
+                    f"says version {version!r}, this diffbench reads version {VERSION} only; "
+                    "read it with the diffbench that wrote it"
+                    f"{' (pip install -U diffbench)' if newer else ''}, or give another --out "
+                    "directory (or move this store away) to start a new one"
                 )
             return "header", record, ""
         if kind == "run":
@@ -234,17 +235,18 @@ class RecordFile:
                 "file": self.path.name, "line": number, "reason": reason, "found_utc": utc_now(),
                 "text": raw.decode("utf-8", errors="backslashreplace"),
             }) + "\n")  # fmt: skip
-        with open(self.quarantine_path, "a", encoding="utf-8") as handle:
-            handle.write("".join(entries))
-            handle.flush()
-            os.fsync(handle.fileno())
+        _append_whole(self.quarantine_path, "".join(entries).encode("utf-8"), create=True)
 
     def _replace(self, body: bytes) -> None:
         temporary = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
-        with open(temporary, "wb") as handle:
-            handle.write(body)
-            handle.flush()
-            os.fsync(handle.fileno())
+        try:
+            with open(temporary, "wb") as handle:
+                handle.write(body)
+                handle.flush()
+                os.fsync(handle.fileno())
+        except OSError as error:  # disk full, file size limit: the original stays as it was
+            temporary.unlink(missing_ok=True)
+            raise _naming(error, temporary) from None
         os.replace(temporary, self.path)
 
     def refresh(self) -> None:
@@ -289,17 +291,39 @@ class RecordFile:
                 data += (canonical(run) + "\n").encode()
                 self.runs[run["run"]] = run
             data += (canonical(record) + "\n").encode()
-            fd = os.open(self.path, os.O_WRONLY | os.O_APPEND)
-            try:
-                written = os.write(fd, data)
-                if written != len(data):
-                    raise OSError(f"short write to {self.path} ({written} of {len(data)} bytes)")
-                os.fsync(fd)
-            finally:
-                os.close(fd)
+            _append_whole(self.path, data)
             self._offset = self.path.stat().st_size
             self.records[record["key"]] = record
         return True
+
+
+def _naming(error: OSError, path: Path) -> OSError:
+    """``error`` with ``path`` as its file name (so it can be reported in one line)."""
+    if error.filename is not None or error.errno is None:
+        return error
+    return type(error)(error.errno, error.strerror, str(path))
+
+
+def _append_whole(path: Path, data: bytes, create: bool = False) -> None:
+    """Append ``data`` to ``path`` and ``fsync`` it; a write cut short (disk full, the file
+    size limit) is raised as an ``OSError`` naming the file and its cause. What it left is a
+    torn last line, which readers skip and the next opening sets aside (no good record is
+    touched). The caller holds the file's lock."""
+    flags = os.O_WRONLY | os.O_APPEND | (os.O_CREAT if create else 0)
+    try:
+        fd = os.open(path, flags, 0o644)
+        try:
+            view = memoryview(data)
+            while view:  # a short write is followed by one that fails with the cause
+                written = os.write(fd, view)
+                if written == 0:
+                    raise OSError(errno.EIO, "no bytes written", str(path))
+                view = view[written:]
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+    except OSError as error:
+        raise _naming(error, path) from None
 
 
 # --- cells ---------------------------------------------------------------------------------
