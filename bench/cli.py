@@ -517,13 +517,17 @@ def _open_store(out: Path) -> Store:
         store = Store(out / "store")
     except StoreError as error:
         raise UsageError(str(error)) from None
-    for item in store.set_aside:
+    _warn_set_aside(store.set_aside)
+    return store
+
+
+def _warn_set_aside(items) -> None:
+    for item in items:
         print(
             f"diffbench: warning: set aside {item} (kept in "
             f"{item.path.with_name(item.path.stem + '.quarantine.jsonl')})",
             file=sys.stderr,
         )
-    return store
 
 
 def _progress(args, unit: str = "cell"):
@@ -825,10 +829,11 @@ def _cmd_recommend(args) -> None:
         print(path)
 
 
-def _cmd_recommend_check(args) -> None:
-    import functools
-    import json
+VALIDATION = "recommend-validation"
+"""The study name of ``recommend-check``'s rows in the store."""
 
+
+def _cmd_recommend_check(args) -> None:
     from diffbench import signals
     from diffbench.bench import recommend
 
@@ -845,23 +850,26 @@ def _cmd_recommend_check(args) -> None:
             signals.get_scenario(name)
     directory = args.out / "recommend-validation"
     directory.mkdir(parents=True, exist_ok=True)
-    # finished scenarios are kept row by row: a run stopped part way resumes where it stopped
-    done_path = directory / "rows.jsonl"
-    done = []
-    if done_path.exists():
-        done = [json.loads(line) for line in done_path.read_text().splitlines() if line]
+    legacy = directory / "rows.jsonl"
+    if legacy.exists():
+        print(
+            f"diffbench: note: {legacy} (an older diffbench's) is no longer read; the rows "
+            f"are kept in {args.out / 'store'}",
+            file=sys.stderr,
+        )
+    # each finished scenario is one record of the store: a stopped run resumes where it stopped
+    store = _open_store(args.out)
+    _warn_set_aside(store.studies.set_aside)
     key = ",".join(names)
-    finished = {row["scenario"] for row in done if row.get("methods") == key}
-    rows = [row for row in done if row.get("methods") == key and row["scenario"] in scenarios]
-    todo = [name for name in scenarios if name not in finished]
+    stored = {name: store.find_study_rows(VALIDATION, name, names) for name in scenarios}
+    todo = [name for name, found in stored.items() if found is None]
     validate = functools.partial(recommend.validate, names=tuple(names))
-    # workers return rows, this process alone appends them, each scenario as it finishes
+    # workers return rows, this process alone stores them, each scenario as it finishes
     for name, found in executor.completed_map(validate, todo, args.jobs):
-        new = [{**row, "methods": key} for row in found]
-        with done_path.open("a") as stream:
-            stream.writelines(json.dumps(row) + "\n" for row in new)
-        rows += new
-        print(f"{name}: " + ", ".join(f"{r['ratio']:.3g}" for r in new), flush=True)
+        stored[name] = [{**row, "methods": key} for row in found]
+        store.add_study_rows(VALIDATION, name, names, stored[name])
+        print(f"{name}: " + ", ".join(f"{r['ratio']:.3g}" for r in stored[name]), flush=True)
+    rows = [row for name in scenarios for row in stored[name]]
     for path in recommend.write_validation(rows, directory, names):
         print(path)
 

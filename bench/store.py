@@ -1,14 +1,18 @@
 """The results store: append-only JSON Lines files that keep every good record through anything.
 
 A store is a folder (``<out>/store/``) holding one file per kind of record: ``cells.jsonl`` (one
-line per finished cell: its key, the role of its parameters, its scores) and ``tunings.jsonl``
-(one line per finished tuning). Each file starts with a header line; each run that writes to it
-adds one ``run`` line first (git revision, package versions, command), and its records name
-that run, so provenance is stored once per run, not on every row.
+line per finished cell: its key, the role of its parameters, its scores), ``tunings.jsonl``
+(one line per finished tuning) and, once a study outside the task model stores its rows there,
+``studies.jsonl`` (one line per study item: ``recommend-check``'s scenarios). Each file starts
+with a header line; each run that writes to it adds one ``run`` line first (git revision,
+package versions, command), and its records name that run, so provenance is stored once per
+run, not on every row.
 
 Guarantees
 ----------
-* **Atomic records.** A record is one line written by one ``os.write`` and then ``fsync``-ed,
+* **Atomic records.** A record is one line written by one ``os.write`` and then ``fsync``-ed
+  (a write the disk cuts short raises an ``OSError`` naming the file; its torn tail is set
+  aside like any other),
   under an exclusive lock (``filelock``) shared by every process that writes to the file.
 * **No duplicates.** Under the lock the writer first reads what other writers appended, and a
   record whose key is already stored is refused (``append`` returns False): two concurrent
@@ -417,8 +421,26 @@ def _check_tuning(record: dict) -> None:
         raise ValueError("`key` does not match the record's fields")
 
 
+# --- study rows ----------------------------------------------------------------------------
+def study_key(study: str, item: str, setting: Any) -> str:
+    """The identity of a study's rows: the study, the item they score (a scenario), and the
+    setting that changes them (e.g. the methods recommended among)."""
+    return canonical([study, item, setting])
+
+
+def _check_study(record: dict) -> None:
+    for name, kind in (("study", str), ("item", str), ("rows", list)):
+        if not isinstance(record.get(name), kind):
+            raise ValueError(f"`{name}` must be a {kind.__name__}")
+    if not all(isinstance(row, dict) for row in record["rows"]):
+        raise ValueError("`rows` must be a list of objects")
+    if record.get("key") != study_key(record["study"], record["item"], record.get("setting")):
+        raise ValueError("`key` does not match the record's study, item, setting")
+
+
 class Store:
-    """The results store of one output directory: cells and tunings (see module docstring).
+    """The results store of one output directory: cells and tunings (see module docstring),
+    and the rows of studies outside the task model (:meth:`add_study_rows`).
 
     >>> store = Store(Path("results"))  # doctest: +SKIP
     >>> store.cells_frame("paper-signal")  # tidy rows: one per cell x score  # doctest: +SKIP
@@ -429,9 +451,39 @@ class Store:
         self.cells = RecordFile(self.directory / "cells.jsonl", "cell", _check_cell)
         self.tunings = RecordFile(self.directory / "tunings.jsonl", "tuning", _check_tuning)
 
+        self._studies: RecordFile | None = None
+
+    @property
+    def studies(self) -> RecordFile:
+        """``studies.jsonl``: each record the rows a study computed for one item (opened, so
+        created, on first use)."""
+        if self._studies is None:
+            self._studies = RecordFile(self.directory / "studies.jsonl", "study", _check_study)
+        return self._studies
+
     @property
     def set_aside(self) -> list[SetAside]:
-        return self.cells.set_aside + self.tunings.set_aside
+        studies = self._studies.set_aside if self._studies is not None else []
+        return self.cells.set_aside + self.tunings.set_aside + studies
+
+    def find_study_rows(self, study: str, item: str, setting: Any) -> list[dict] | None:
+        """The stored rows of ``study`` for ``item`` under ``setting``, None if not stored."""
+        record = self.studies.records.get(study_key(study, item, setting))
+        return None if record is None else record["rows"]
+
+    def add_study_rows(self, study: str, item: str, setting: Any, rows: list[dict]) -> bool:
+        """Store the rows ``study`` computed for ``item`` under ``setting`` (all in one
+        record: an item is stored whole or not at all); False if another writer stored them
+        first. ``setting`` must be JSON (a list of names, a dict)."""
+        record = {
+            "key": study_key(study, item, setting),
+            "study": study,
+            "item": item,
+            "setting": setting,
+            "rows": [dict(row) for row in rows],
+            "finished_utc": utc_now(),
+        }
+        return self.studies.append(record)
 
     def has_cell(self, key: str) -> bool:
         return key in self.cells.records
@@ -439,6 +491,8 @@ class Store:
     def refresh(self) -> None:
         self.cells.refresh()
         self.tunings.refresh()
+        if self._studies is not None:
+            self._studies.refresh()
 
     def add_cell(self, *, task: str, method: str, params: Mapping[str, Any], seed: int,
                  role: Mapping[str, Any], scores: list[dict[str, Any]],

@@ -234,8 +234,9 @@ class TuningResult:
     history: tuple = field(default=(), repr=False)
 
 
-def cutoff_range_hz(realisation, criterion: str = "no-truth",
-                    region: str = "interior") -> tuple[float, float]:  # fmt: skip
+def cutoff_range_hz(
+    realisation, criterion: str = "no-truth", region: str = "interior"
+) -> tuple[float, float]:
     """The bandlimit guesses ``cutoff_hz`` the data-only ``criterion`` can use on
     ``realisation``: from ``1 / duration`` (the lowest non-zero frequency the samples resolve,
     the periodogram's first bin) up to, not including, the Nyquist frequency ``0.5 / dt``.
@@ -257,8 +258,9 @@ def cutoff_range_hz(realisation, criterion: str = "no-truth",
     return 1.0 / (samples * dt), 0.5 / dt
 
 
-def check_cutoff(cutoff_hz, realisation, criterion: str = "no-truth",
-                 region: str = "interior") -> None:  # fmt: skip
+def check_cutoff(
+    cutoff_hz, realisation, criterion: str = "no-truth", region: str = "interior"
+) -> None:
     """Raise ``ValueError`` naming ``cutoff_hz`` and the range that works
     (:func:`cutoff_range_hz`) unless it lies in that range."""
     if cutoff_hz is None:
