@@ -100,6 +100,15 @@ def _finite_positive(text: str) -> float:
     return value
 
 
+def _timeout(text: str) -> float:
+    value = _finite_positive(text)
+    if value > runner.MAX_TIMEOUT_S:
+        raise argparse.ArgumentTypeError(
+            f"must be a number of seconds > 0 and <= {runner.MAX_TIMEOUT_S:g}, got {text}"
+        )
+    return value
+
+
 def _name_list(text: str) -> list[str]:
     names = [name.strip() for name in text.split(",") if name.strip()]
     if not names:
@@ -160,6 +169,16 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="a running Dask scheduler (tcp://host:8786; implies --executor dask): the "
         "workers compute, this process stores",
+    )
+    work.add_argument(
+        "--timeout",
+        dest="timeout_s",
+        type=_timeout,
+        default=runner.DEFAULT_TIMEOUT_S,
+        metavar="SECONDS",
+        help="most seconds one cell's computation may take; a cell past it is recorded as "
+        f"failed, the run goes on, the next run tries it again (default "
+        f"{runner.DEFAULT_TIMEOUT_S:g}: the slowest built-in cell takes about 160 s)",
     )
     work.add_argument("--no-progress", action="store_true", help="no progress bar")
     seeds = _Parser(add_help=False)
@@ -544,7 +563,9 @@ def _progress(args, unit: str = "cell"):
 
 def _run_cells(cells, store: Store, args) -> runner.RunSummary:
     try:
-        return runner.run(cells, store, progress=_progress(args), jobs=args.jobs)
+        return runner.run(
+            cells, store, progress=_progress(args), jobs=args.jobs, timeout_s=args.timeout_s
+        )
     except (KeyboardInterrupt, Terminated) as stop:
         store.refresh()
         print(
@@ -562,23 +583,47 @@ def _say(summary: runner.RunSummary) -> None:
         text += f", {summary.reused} the same computation as another cell (its scores taken)"
     if summary.stored_by_others:
         text += f", {summary.stored_by_others} stored meanwhile by another writer"
+    if summary.failed:
+        text += f", {len(summary.failed)} failed (recorded; the next run tries them again)"
     print(text)
+    for cell, reason in summary.failed:
+        print(
+            f"diffbench: warning: cell failed: {cell.method} on {cell.task} seed {cell.seed}: "
+            f"{reason}",
+            file=sys.stderr,
+        )
 
 
 def _report(task, store: Store, out: Path) -> list[Path]:
     store.refresh()
     cells = store.cells_frame(task.name)
+    failed = store.failed_cells(task.name)
+    if cells.empty and not failed.empty:
+        raise UsageError(
+            f"every cell of {task.name} asked for failed ({len(failed)}: "
+            f"{failed['reason'].iloc[-1]}); nothing to report"
+        )
     if cells.empty:
         raise UsageError(
             f"no stored results of {task.name} in {store.directory}; run "
             f"`diffbench run {task.name} --out {out}` first"
         )
-    key = uptodate.inputs_key(
-        {"report": task.name, "folder": task.folder}, [store.cells.path, store.tunings.path]
-    )
-    written = uptodate.report_once(
-        out / task.folder, key, lambda: task.report(cells, store.tunings_frame(), out / task.folder)
-    )
+    sources = [store.cells.path, store.tunings.path]
+    sources += [store.failures.path] if not failed.empty else []
+    key = uptodate.inputs_key({"report": task.name, "folder": task.folder}, sources)
+    directory = out / task.folder
+
+    def write() -> list[Path]:
+        written = task.report(cells, store.tunings_frame(), directory)
+        return written + _write_failed(failed, directory)
+
+    written = uptodate.report_once(directory, key, write)
+    if not failed.empty:
+        print(
+            f"diffbench: warning: {len(failed)} cells of {task.name} failed and are not in its "
+            f"tables (listed in {directory / FAILED_CSV}); the next run tries them again",
+            file=sys.stderr,
+        )
     current = provenance()["git_rev"]
     others = sorted(r[:12] for r in set(cells["git_rev"]) - {current})
     if others:
@@ -588,6 +633,20 @@ def _report(task, store: Store, out: Path) -> list[Path]:
             file=sys.stderr,
         )
     return written
+
+
+FAILED_CSV = "failed.csv"
+
+
+def _write_failed(failed, directory: Path) -> list[Path]:
+    """``failed.csv`` beside a report: the cells that failed (so none is silently missing);
+    an older one is removed once none has."""
+    path = directory / FAILED_CSV
+    if failed.empty:
+        path.unlink(missing_ok=True)
+        return []
+    failed.to_csv(path, index=False)
+    return [path]
 
 
 RECORDS_FLAG = ("--records",)

@@ -438,6 +438,25 @@ def _check_study(record: dict) -> None:
         raise ValueError("`key` does not match the record's study, item, setting")
 
 
+# --- failed cells ----------------------------------------------------------------------------
+def _check_failure(record: dict) -> None:
+    for name, kind in (
+        ("cell", str),
+        ("task", str),
+        ("method", str),
+        ("params", dict),
+        ("role", dict),
+        ("reason", str),
+    ):
+        if not isinstance(record.get(name), kind):
+            raise ValueError(f"`{name}` must be a {kind.__name__}")
+    role, seed = record["role"], record.get("seed")
+    if record["cell"] != cell_key(record["task"], record["method"], record["params"], seed, role):
+        raise ValueError("`cell` does not match the record's task, method, params, seed, role")
+    if record.get("key") != canonical([record["cell"], record.get("run")]):
+        raise ValueError("`key` does not match the record's cell and run")
+
+
 class Store:
     """The results store of one output directory: cells and tunings (see module docstring),
     and the rows of studies outside the task model (:meth:`add_study_rows`).
@@ -452,6 +471,7 @@ class Store:
         self.tunings = RecordFile(self.directory / "tunings.jsonl", "tuning", _check_tuning)
 
         self._studies: RecordFile | None = None
+        self._failures: RecordFile | None = None
 
     @property
     def studies(self) -> RecordFile:
@@ -462,9 +482,80 @@ class Store:
         return self._studies
 
     @property
+    def failures(self) -> RecordFile:
+        """``failures.jsonl``: one record per failed attempt at a cell (per run), with its
+        reason (opened, so created, on first use; read at opening if it exists)."""
+        if self._failures is None:
+            self._failures = RecordFile(
+                self.directory / "failures.jsonl", "failure", _check_failure
+            )
+        return self._failures
+
+    @property
     def set_aside(self) -> list[SetAside]:
-        studies = self._studies.set_aside if self._studies is not None else []
-        return self.cells.set_aside + self.tunings.set_aside + studies
+        extra = [
+            item
+            for file in (self._studies, self._failures)
+            if file is not None
+            for item in file.set_aside
+        ]
+        return self.cells.set_aside + self.tunings.set_aside + extra
+
+    def add_failure(
+        self,
+        *,
+        task: str,
+        method: str,
+        params: Mapping[str, Any],
+        seed: int,
+        role: Mapping[str, Any],
+        reason: str,
+        package: str = "unknown",
+    ) -> bool:
+        """Record that this run's attempt at a cell failed, and why (a timeout, a plugin's
+        error). The cell stays unfinished: a later run computes it again."""
+        cell = cell_key(task, method, params, seed, role)
+        record = {
+            "key": canonical([cell, CURRENT_RUN.run_id]),
+            "cell": cell,
+            "task": task,
+            "method": method,
+            "params": dict(params),
+            "seed": int(seed),
+            "role": dict(role),
+            "reason": str(reason),
+            "package": str(package),
+            "finished_utc": utc_now(),
+        }
+        return self.failures.append(record)
+
+    def failed_cells(self, task: str | Iterable[str] | None = None) -> pd.DataFrame:
+        """The cells of ``task`` whose last recorded attempt failed and that no run has
+        finished since: task, method, params (canonical JSON), seed, role (canonical JSON),
+        reason, package, finished_utc (of the failed attempt)."""
+        columns = ["task", "method", "params", "seed", "role", "reason", "package", "finished_utc"]
+        if self._failures is None and not (self.directory / "failures.jsonl").exists():
+            return pd.DataFrame(columns=columns)
+        wanted = None if task is None else ({task} if isinstance(task, str) else set(task))
+        last: dict[str, dict] = {}
+        for record in self.failures.records.values():  # in the order they were written
+            if record["cell"] not in self.cells.records:
+                if wanted is None or record["task"] in wanted:
+                    last[record["cell"]] = record
+        rows = [
+            [
+                r["task"],
+                r["method"],
+                canonical(r["params"]),
+                r["seed"],
+                canonical(r["role"]),
+                r["reason"],
+                r["package"],
+                r["finished_utc"],
+            ]
+            for r in last.values()
+        ]
+        return pd.DataFrame(rows, columns=columns)
 
     def find_study_rows(self, study: str, item: str, setting: Any) -> list[dict] | None:
         """The stored rows of ``study`` for ``item`` under ``setting``, None if not stored."""
@@ -491,8 +582,9 @@ class Store:
     def refresh(self) -> None:
         self.cells.refresh()
         self.tunings.refresh()
-        if self._studies is not None:
-            self._studies.refresh()
+        for file in (self._studies, self._failures):
+            if file is not None:
+                file.refresh()
 
     def add_cell(self, *, task: str, method: str, params: Mapping[str, Any], seed: int,
                  role: Mapping[str, Any], scores: list[dict[str, Any]],

@@ -56,6 +56,15 @@ def loaded_plugins() -> list[Plugin]:
     return list(_LOADED.values())
 
 
+def plugin_of_module(module: str) -> Plugin | None:
+    """The loaded plugin whose module is ``module`` or contains it (a method class's
+    ``__module__``), None for diffbench's own code."""
+    for plugin in _LOADED.values():
+        if f"{module}.".startswith(f"{plugin.module}."):
+            return plugin
+    return None
+
+
 def note_missing(prefix: str, hint: str) -> None:
     """Record that the methods named ``prefix.*`` are absent because a package is not
     installed, and how to get it (a plugin calls this instead of registering them)."""
