@@ -432,8 +432,15 @@ def _check_study(record: dict) -> None:
     for name, kind in (("study", str), ("item", str), ("rows", list)):
         if not isinstance(record.get(name), kind):
             raise ValueError(f"`{name}` must be a {kind.__name__}")
-    if not all(isinstance(row, dict) for row in record["rows"]):
-        raise ValueError("`rows` must be a list of objects")
+    for row in record["rows"]:  # [[column, value], ...]: the columns keep their order
+        if not (
+            isinstance(row, list)
+            and all(
+                isinstance(item, list) and len(item) == 2 and isinstance(item[0], str)
+                for item in row
+            )
+        ):
+            raise ValueError("`rows` must be lists of [column, value] pairs")
     if record.get("key") != study_key(record["study"], record["item"], record.get("setting")):
         raise ValueError("`key` does not match the record's study, item, setting")
 
@@ -560,7 +567,7 @@ class Store:
     def find_study_rows(self, study: str, item: str, setting: Any) -> list[dict] | None:
         """The stored rows of ``study`` for ``item`` under ``setting``, None if not stored."""
         record = self.studies.records.get(study_key(study, item, setting))
-        return None if record is None else record["rows"]
+        return None if record is None else [dict(row) for row in record["rows"]]
 
     def add_study_rows(self, study: str, item: str, setting: Any, rows: list[dict]) -> bool:
         """Store the rows ``study`` computed for ``item`` under ``setting`` (all in one
@@ -571,7 +578,7 @@ class Store:
             "study": study,
             "item": item,
             "setting": setting,
-            "rows": [dict(row) for row in rows],
+            "rows": [[[str(k), v] for k, v in row.items()] for row in rows],
             "finished_utc": utc_now(),
         }
         return self.studies.append(record)
