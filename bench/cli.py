@@ -780,6 +780,8 @@ def _tune(jobs_list, store: Store, args):
         )
         code = EXIT_INTERRUPTED if isinstance(stop, KeyboardInterrupt) else EXIT_TERMINATED
         raise SystemExit(code) from None
+    except runner.PluginFailed as error:
+        raise UsageError(f"{error}; finished tunings are stored") from None
     print(f"{summary.computed} tunings computed, {summary.reused} reused from the store")
     return found, summary
 

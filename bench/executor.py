@@ -145,12 +145,16 @@ def call_timeout(seconds: float | None):
     calls in its main thread, and goes on to the next call). A call is interrupted at the
     next Python instruction: code that stays inside one C call (a library's native loop that
     never returns) is not reached, nor are calls on Dask's worker threads, where the timer
-    is not available (there the call runs without a limit).
+    is not available, nor calls made while the process's timer is already set by the caller
+    (those run without a limit).
     """
     if seconds is not None and not (math.isfinite(seconds) and seconds > 0):
         raise ValueError(f"`timeout_s` must be a finite number > 0, got {seconds!r}")
     here = threading.current_thread() is threading.main_thread()
     if seconds is None or not here or not hasattr(signal, "setitimer"):
+        yield
+        return
+    if signal.getitimer(signal.ITIMER_REAL)[0] > 0:  # the caller's own timer: leave it be
         yield
         return
 

@@ -309,6 +309,21 @@ def _tune(job: TuningJob) -> dict[str, Any] | None:
     task = get_task(job.task)
     realisations = [task.tuning_data(seed) for seed in job.seeds]
     try:
+        return _tuned(job, realisations)
+    except Exception as error:
+        reason = plugin_failure(job.method, error)
+        if reason is None:
+            raise
+        raise PluginFailed(f"{reason} (tuning it on {job.task})") from None
+
+
+class PluginFailed(Exception):
+    """A plugin's method failed where no failed cell can stand for it (a tuning): the
+    message names the plugin, its distribution and the error."""
+
+
+def _tuned(job: TuningJob, realisations) -> dict[str, Any] | None:
+    try:
         result = tuning.tune(
             job.method,
             realisations,

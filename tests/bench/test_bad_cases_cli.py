@@ -378,3 +378,22 @@ def test_a_store_of_another_format_version_is_one_line(tmp_path):
         "--out directory",
     )
     assert cells.read_text() == header
+
+
+def test_a_plugin_method_that_fails_while_tuned_is_one_line(tmp_path, plugin):
+    result = _diffbench(
+        "tune",
+        "bad.raises",
+        "paper-signal",
+        "--plugin",
+        "bad_methods",
+        "--no-progress",
+        "--out",
+        tmp_path,
+        env=plugin,
+    )
+    _one_error_line(
+        result,
+        "plugin bad_methods (dist none): method bad.raises: RuntimeError: "
+        "the plugin's own bug (tuning it on paper-signal)",
+    )
