@@ -1,6 +1,7 @@
 """The ``diffbench`` command line: a thin layer over the Python API.
 
-Exit codes: 0 done; 2 a usage error (bad input: one line on stderr, never a traceback); 1 an
+Exit codes: 0 done; 2 a usage error (bad input, or a machine that cannot take the output: a
+full disk, the file size limit, a read-only folder; one line on stderr, never a traceback); 1 an
 internal error (its traceback: a bug, never disguised as a usage error); 130 interrupted by
 Ctrl-C, 143 by SIGTERM (every finished result is stored; the same command resumes; no worker
 process is left behind); 141 when the reader of the output went away (``diffbench list | head``).
@@ -22,7 +23,7 @@ from diffbench import methods
 from diffbench.bench import executor, runner, uptodate
 from diffbench.bench.executor import Terminated, terminate_on_sigterm
 from diffbench.bench.provenance import provenance
-from diffbench.bench.store import Store, set_command
+from diffbench.bench.store import Store, StoreError, set_command
 from diffbench.bench.tasks import available_tasks, dfki_task, get_task
 
 EXIT_INTERNAL = 1
@@ -51,14 +52,27 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(message)
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {value}")
-    return value
+def _whole_number(low: int, high: int):
+    """An argparse type: a whole number in ``low .. high`` (the message gives the range)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or not low <= value <= high:
+            raise argparse.ArgumentTypeError(
+                f"must be a whole number >= {low} and <= {high:_}, got {text!r}"
+            )
+        return value
+
+    return parse
+
+
+_positive_int = _whole_number(1, runner.MAX_COUNT)
+_seed_count = _whole_number(1, runner.MAX_SEEDS)
+_tuning_seed_count = _whole_number(1, runner.MAX_TUNING_SEEDS)
+_jobs = _whole_number(1, executor.MAX_JOBS)
 
 
 def _record_length(text: str) -> int:
@@ -73,14 +87,7 @@ def _record_length(text: str) -> int:
     return int(value)
 
 
-def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 0, got {value}")
-    return value
+_seed = _whole_number(0, runner.MAX_SEED)
 
 
 def _finite_positive(text: str) -> float:
@@ -90,6 +97,15 @@ def _finite_positive(text: str) -> float:
         raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return value
+
+
+def _timeout(text: str) -> float:
+    value = _finite_positive(text)
+    if value > runner.MAX_TIMEOUT_S:
+        raise argparse.ArgumentTypeError(
+            f"must be a number of seconds > 0 and <= {runner.MAX_TIMEOUT_S:g}, got {text}"
+        )
     return value
 
 
@@ -135,7 +151,7 @@ def build_parser() -> argparse.ArgumentParser:
     work = _Parser(add_help=False)
     work.add_argument(
         "--jobs",
-        type=_positive_int,
+        type=_jobs,
         default=1,
         help="local worker processes, or Dask workers with --executor dask (results identical "
         "to a serial run)",
@@ -154,11 +170,21 @@ def build_parser() -> argparse.ArgumentParser:
         help="a running Dask scheduler (tcp://host:8786; implies --executor dask): the "
         "workers compute, this process stores",
     )
+    work.add_argument(
+        "--timeout",
+        dest="timeout_s",
+        type=_timeout,
+        default=runner.DEFAULT_TIMEOUT_S,
+        metavar="SECONDS",
+        help="most seconds one cell's computation may take; a cell past it is recorded as "
+        f"failed, the run goes on, the next run tries it again (default "
+        f"{runner.DEFAULT_TIMEOUT_S:g}: the slowest built-in cell takes about 160 s)",
+    )
     work.add_argument("--no-progress", action="store_true", help="no progress bar")
     seeds = _Parser(add_help=False)
     seeds.add_argument(
         "--seeds",
-        type=_positive_int,
+        type=_seed_count,
         default=None,
         help="scored seeds 0..N-1 (default: the task's, 10 for signals)",
     )
@@ -231,7 +257,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     tune.add_argument(
         "--tuning-seeds",
-        type=_positive_int,
+        type=_tuning_seed_count,
         default=1,
         metavar="K",
         help="average the tuning loss over K seeds, TUNING_SEED .. TUNING_SEED+K-1 (default 1)",
@@ -255,7 +281,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     # the sweeps that tune every method per task, then score it: grid and limit
     sweep = _Parser(add_help=False)
-    sweep.add_argument("--seeds", type=_positive_int, default=10, help="scored seeds 0..N-1")
+    sweep.add_argument("--seeds", type=_seed_count, default=10, help="scored seeds 0..N-1")
     sweep.add_argument(
         "--orders", type=_orders, default=[1, 2], help="derivatives tuned for (default 1,2)"
     )
@@ -296,7 +322,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     figures.add_argument(
         "--seeds",
-        type=_positive_int,
+        type=_seed_count,
         default=20,
         help="noise seeds of the error-against-position figure (default 20)",
     )
@@ -506,14 +532,21 @@ def _method_names(names) -> list[str] | None:
 
 
 def _open_store(out: Path) -> Store:
-    store = Store(out / "store")
-    for item in store.set_aside:
+    try:
+        store = Store(out / "store")
+    except StoreError as error:
+        raise UsageError(str(error)) from None
+    _warn_set_aside(store.set_aside)
+    return store
+
+
+def _warn_set_aside(items) -> None:
+    for item in items:
         print(
             f"diffbench: warning: set aside {item} (kept in "
             f"{item.path.with_name(item.path.stem + '.quarantine.jsonl')})",
             file=sys.stderr,
         )
-    return store
 
 
 def _progress(args, unit: str = "cell"):
@@ -530,7 +563,9 @@ def _progress(args, unit: str = "cell"):
 
 def _run_cells(cells, store: Store, args) -> runner.RunSummary:
     try:
-        return runner.run(cells, store, progress=_progress(args), jobs=args.jobs)
+        return runner.run(
+            cells, store, progress=_progress(args), jobs=args.jobs, timeout_s=args.timeout_s
+        )
     except (KeyboardInterrupt, Terminated) as stop:
         store.refresh()
         print(
@@ -548,23 +583,47 @@ def _say(summary: runner.RunSummary) -> None:
         text += f", {summary.reused} the same computation as another cell (its scores taken)"
     if summary.stored_by_others:
         text += f", {summary.stored_by_others} stored meanwhile by another writer"
+    if summary.failed:
+        text += f", {len(summary.failed)} failed (recorded; the next run tries them again)"
     print(text)
+    for cell, reason in summary.failed:
+        print(
+            f"diffbench: warning: cell failed: {cell.method} on {cell.task} seed {cell.seed}: "
+            f"{reason}",
+            file=sys.stderr,
+        )
 
 
 def _report(task, store: Store, out: Path) -> list[Path]:
     store.refresh()
     cells = store.cells_frame(task.name)
+    failed = store.failed_cells(task.name)
+    if cells.empty and not failed.empty:
+        raise UsageError(
+            f"every cell of {task.name} asked for failed ({len(failed)}: "
+            f"{failed['reason'].iloc[-1]}); nothing to report"
+        )
     if cells.empty:
         raise UsageError(
             f"no stored results of {task.name} in {store.directory}; run "
             f"`diffbench run {task.name} --out {out}` first"
         )
-    key = uptodate.inputs_key(
-        {"report": task.name, "folder": task.folder}, [store.cells.path, store.tunings.path]
-    )
-    written = uptodate.report_once(
-        out / task.folder, key, lambda: task.report(cells, store.tunings_frame(), out / task.folder)
-    )
+    sources = [store.cells.path, store.tunings.path]
+    sources += [store.failures.path] if not failed.empty else []
+    key = uptodate.inputs_key({"report": task.name, "folder": task.folder}, sources)
+    directory = out / task.folder
+
+    def write() -> list[Path]:
+        written = task.report(cells, store.tunings_frame(), directory)
+        return written + _write_failed(failed, directory)
+
+    written = uptodate.report_once(directory, key, write)
+    if not failed.empty:
+        print(
+            f"diffbench: warning: {len(failed)} cells of {task.name} failed and are not in its "
+            f"tables (listed in {directory / FAILED_CSV}); the next run tries them again",
+            file=sys.stderr,
+        )
     current = provenance()["git_rev"]
     others = sorted(r[:12] for r in set(cells["git_rev"]) - {current})
     if others:
@@ -574,6 +633,20 @@ def _report(task, store: Store, out: Path) -> list[Path]:
             file=sys.stderr,
         )
     return written
+
+
+FAILED_CSV = "failed.csv"
+
+
+def _write_failed(failed, directory: Path) -> list[Path]:
+    """``failed.csv`` beside a report: the cells that failed (so none is silently missing);
+    an older one is removed once none has."""
+    path = directory / FAILED_CSV
+    if failed.empty:
+        path.unlink(missing_ok=True)
+        return []
+    failed.to_csv(path, index=False)
+    return [path]
 
 
 RECORDS_FLAG = ("--records",)
@@ -623,19 +696,24 @@ def _cmd_report(args) -> None:
         print(path)
 
 
-def _check_cutoff(cutoff_hz: float, task) -> None:
+def _check_cutoff(cutoff_hz: float, task, criteria, region: str) -> None:
+    from diffbench.bench import tuning
+
     realisation = task.tuning_data(0)
-    nyquist = 0.5 / realisation.dt_s
-    if not 0 < cutoff_hz < nyquist:
-        raise UsageError(
-            f"--cutoff-hz must lie strictly inside (0, {nyquist:g}) Hz, the "
-            f"Nyquist frequency of {task.name}; got {cutoff_hz:g}"
-        )
+    for criterion in criteria:
+        with user_input(f"--cutoff-hz on {task.name}: "):
+            tuning.check_cutoff(cutoff_hz, realisation, criterion, region)
 
 
 def _cmd_tune(args) -> None:
     task = _task(args.task)
     tuned_on = range(args.tuning_seed, args.tuning_seed + args.tuning_seeds)
+    if tuned_on[-1] > runner.MAX_SEED:
+        raise UsageError(
+            f"--tuning-seed {args.tuning_seed} with --tuning-seeds {args.tuning_seeds} goes "
+            f"past the largest seed {runner.MAX_SEED}; choose a tuning seed <= "
+            f"{runner.MAX_SEED - args.tuning_seeds + 1}"
+        )
     with user_input():
         seeds = task.seeds(args.seeds)
         task.tuning_data(tuned_on[-1])
@@ -653,7 +731,7 @@ def _cmd_tune(args) -> None:
         )
     data_only = [c for c in args.criteria if c in ("no-truth", "pynumdiff")]  # need f_c
     if data_only:
-        _check_cutoff(args.cutoff_hz, task)
+        _check_cutoff(args.cutoff_hz, task, data_only, args.region)
     jobs_list = []
     for criterion in args.criteria:
         for name in names:
@@ -702,6 +780,8 @@ def _tune(jobs_list, store: Store, args):
         )
         code = EXIT_INTERRUPTED if isinstance(stop, KeyboardInterrupt) else EXIT_TERMINATED
         raise SystemExit(code) from None
+    except runner.PluginFailed as error:
+        raise UsageError(f"{error}; finished tunings are stored") from None
     print(f"{summary.computed} tunings computed, {summary.reused} reused from the store")
     return found, summary
 
@@ -810,10 +890,11 @@ def _cmd_recommend(args) -> None:
         print(path)
 
 
-def _cmd_recommend_check(args) -> None:
-    import functools
-    import json
+VALIDATION = "recommend-validation"
+"""The study name of ``recommend-check``'s rows in the store."""
 
+
+def _cmd_recommend_check(args) -> None:
     from diffbench import signals
     from diffbench.bench import recommend
 
@@ -830,23 +911,26 @@ def _cmd_recommend_check(args) -> None:
             signals.get_scenario(name)
     directory = args.out / "recommend-validation"
     directory.mkdir(parents=True, exist_ok=True)
-    # finished scenarios are kept row by row: a run stopped part way resumes where it stopped
-    done_path = directory / "rows.jsonl"
-    done = []
-    if done_path.exists():
-        done = [json.loads(line) for line in done_path.read_text().splitlines() if line]
+    legacy = directory / "rows.jsonl"
+    if legacy.exists():
+        print(
+            f"diffbench: note: {legacy} (an older diffbench's) is no longer read; the rows "
+            f"are kept in {args.out / 'store'}",
+            file=sys.stderr,
+        )
+    # each finished scenario is one record of the store: a stopped run resumes where it stopped
+    store = _open_store(args.out)
+    _warn_set_aside(store.studies.set_aside)
     key = ",".join(names)
-    finished = {row["scenario"] for row in done if row.get("methods") == key}
-    rows = [row for row in done if row.get("methods") == key and row["scenario"] in scenarios]
-    todo = [name for name in scenarios if name not in finished]
+    stored = {name: store.find_study_rows(VALIDATION, name, names) for name in scenarios}
+    todo = [name for name, found in stored.items() if found is None]
     validate = functools.partial(recommend.validate, names=tuple(names))
-    # workers return rows, this process alone appends them, each scenario as it finishes
+    # workers return rows, this process alone stores them, each scenario as it finishes
     for name, found in executor.completed_map(validate, todo, args.jobs):
-        new = [{**row, "methods": key} for row in found]
-        with done_path.open("a") as stream:
-            stream.writelines(json.dumps(row) + "\n" for row in new)
-        rows += new
-        print(f"{name}: " + ", ".join(f"{r['ratio']:.3g}" for r in new), flush=True)
+        stored[name] = [{**row, "methods": key} for row in found]
+        store.add_study_rows(VALIDATION, name, names, stored[name])
+        print(f"{name}: " + ", ".join(f"{r['ratio']:.3g}" for r in stored[name]), flush=True)
+    rows = [row for name in scenarios for row in stored[name]]
     for path in recommend.write_validation(rows, directory, names):
         print(path)
 
@@ -868,11 +952,44 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``diffbench`` console script; returns the exit code."""
     argv = list(sys.argv[1:] if argv is None else argv)
     previous = terminate_on_sigterm()
+    stdout = sys.stdout
+    if stdout is not None and stdout is sys.__stdout__:
+        sys.stdout = _NamedOutput(stdout)  # its OSErrors name it (e.g. `> /dev/full`)
     try:
         return _main(argv)
     finally:
         # called in-process (a test, a script), the caller keeps its own SIGTERM handling
         signal.signal(signal.SIGTERM, previous)
+        sys.stdout = stdout
+
+
+class _NamedOutput:
+    """The standard output, whose ``OSError`` names it as its file (Python's own names none)."""
+
+    def __init__(self, stream) -> None:
+        self._stream = stream
+
+    def _named(self, call, *args):
+        try:
+            return call(*args)
+        except BrokenPipeError:
+            raise
+        except OSError as error:
+            if error.errno is None or error.filename is not None:
+                raise
+            raise type(error)(error.errno, error.strerror, STDOUT_NAME) from None
+
+    def write(self, text: str) -> int:
+        return self._named(self._stream.write, text)
+
+    def flush(self) -> None:
+        return self._named(self._stream.flush)
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
+
+
+STDOUT_NAME = "the standard output"
 
 
 def _main(argv: list[str]) -> int:
@@ -887,12 +1004,7 @@ def _main(argv: list[str]) -> int:
         print(f"diffbench: error: {message}", file=sys.stderr)
         return EXIT_USAGE
     except OSError as error:
-        if isinstance(error, BrokenPipeError):
-            return _broken_pipe()
-        if error.errno is not None and error.filename is not None:  # e.g. an unwritable --out
-            print(f"diffbench: error: {error.strerror}: {error.filename}", file=sys.stderr)
-            return EXIT_USAGE
-        raise
+        return _os_error(error)
     except KeyboardInterrupt:
         print("diffbench: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
@@ -903,16 +1015,37 @@ def _main(argv: list[str]) -> int:
         return int(stop.code or 0) if not isinstance(stop.code, str) else EXIT_USAGE
     try:
         sys.stdout.flush()
-    except BrokenPipeError:
-        return _broken_pipe()
+    except OSError as error:
+        return _os_error(error)
     return 0
+
+
+def _os_error(error: OSError) -> int:
+    """An ``OSError`` the machine gave (the reader of the output gone, a disk full, the file
+    size limit, a read-only or unwritable folder): one line naming the file, and the exit
+    code; one without an error number is diffbench's bug, raised again (its traceback)."""
+    if isinstance(error, BrokenPipeError):
+        return _broken_pipe()
+    if error.errno is None:
+        raise error
+    name = error.filename
+    if name == STDOUT_NAME:
+        _silence_stdout()  # so that Python's own flush at exit does not fail again
+    where = f": {name}" if name is not None else " (writing a report or reading input)"
+    reason = error.strerror or os.strerror(error.errno)
+    print(f"diffbench: error: {reason}{where}", file=sys.stderr)
+    return EXIT_USAGE
+
+
+def _silence_stdout() -> None:
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
 
 
 def _broken_pipe() -> int:
     # The reader went away (e.g. `| head`): stop quietly, and keep Python's exit-time flush of
     # stdout from failing again (the pattern the Python documentation gives for SIGPIPE).
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, sys.stdout.fileno())
+    _silence_stdout()
     return EXIT_BROKEN_PIPE
 
 

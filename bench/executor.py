@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import math
 import multiprocessing
 import os
 import signal
@@ -29,6 +30,8 @@ from dataclasses import dataclass
 from typing import Any
 
 PARENT_POLL_S = 0.25
+MAX_JOBS = 1024
+"""The most worker processes (``--jobs``) a run starts."""
 
 
 @dataclass(frozen=True)
@@ -125,6 +128,46 @@ def _dask_map(function, items, spec: DaskWorkers, ordered: bool):
                     yield where[future.key], future.result()
         finally:
             client.cancel(futures)
+
+
+class CallTimeout(BaseException):
+    """Raised inside a call that outlived its :func:`call_timeout` (a ``BaseException``, so
+    that a method's own ``except Exception`` cannot swallow it)."""
+
+
+@contextlib.contextmanager
+def call_timeout(seconds: float | None):
+    """Raise :class:`CallTimeout` in the code run inside if it lasts longer than ``seconds``
+    (``None``: no limit).
+
+    It uses the process's real-time interval timer (``SIGALRM``), so it works where the work
+    runs in a process's main thread: here (a serial run) and on local workers (each runs its
+    calls in its main thread, and goes on to the next call). A call is interrupted at the
+    next Python instruction: code that stays inside one C call (a library's native loop that
+    never returns) is not reached, nor are calls on Dask's worker threads, where the timer
+    is not available, nor calls made while the process's timer is already set by the caller
+    (those run without a limit).
+    """
+    if seconds is not None and not (math.isfinite(seconds) and seconds > 0):
+        raise ValueError(f"`timeout_s` must be a finite number > 0, got {seconds!r}")
+    here = threading.current_thread() is threading.main_thread()
+    if seconds is None or not here or not hasattr(signal, "setitimer"):
+        yield
+        return
+    if signal.getitimer(signal.ITIMER_REAL)[0] > 0:  # the caller's own timer: leave it be
+        yield
+        return
+
+    def expired(signum, frame):
+        raise CallTimeout(seconds)
+
+    previous = signal.signal(signal.SIGALRM, expired)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
 
 
 class Terminated(BaseException):

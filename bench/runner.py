@@ -11,6 +11,7 @@ holds: the task scores the method (:meth:`bench.tasks.Task.score`).
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -19,9 +20,19 @@ from typing import Any
 
 from diffbench import methods
 from diffbench.bench import tuning
-from diffbench.bench.executor import ordered_map
+from diffbench.bench.executor import CallTimeout, call_timeout, ordered_map
 from diffbench.bench.roles import Role
 from diffbench.bench.store import Store, canonical, cell_key, computation_key
+from diffbench.methods._plugins import plugin_of_module
+
+MAX_SEEDS = 10_000
+"""The most noise seeds a run scores (``--seeds``): each is one cell per entry."""
+MAX_TUNING_SEEDS = 100
+"""The most realisations one tuning averages its loss over (``--tuning-seeds``)."""
+MAX_SEED = 2**32 - 1
+"""The largest noise seed (a seed is any whole number from 0 to this)."""
+MAX_COUNT = 10**9
+"""The largest count any other option takes (``--budget``): beyond it a run never ends."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,9 +98,62 @@ def compute_cell(cell: Cell) -> list[dict[str, Any]]:
     return get_task(cell.task).score_cell(method, cell.seed, cell.role)
 
 
-def _timed(cell: Cell) -> tuple[list[dict[str, Any]], float]:
+DEFAULT_TIMEOUT_S = 1800.0
+"""The default limit of one cell's computation (``--timeout``): the slowest built-in cell
+measured, Kalman on identify-dfki, took 162 s on a loaded 2-core machine; 1800 s leaves it
+a factor of 11 on a slower one, and stops a method that never returns within half an hour."""
+
+MAX_TIMEOUT_S = 7 * 24 * 3600.0
+"""The largest ``--timeout``: a week."""
+
+
+@dataclass(frozen=True)
+class Failed:
+    """A cell whose computation failed without it being diffbench's bug: it outlived the
+    timeout, or a plugin's method raised (or gave output the contract refuses)."""
+
+    reason: str
+
+
+def plugin_label(method: str) -> str | None:
+    """``"plugin MODULE (dist NAME VERSION)"`` when ``method`` comes from a plugin outside
+    diffbench's own distribution, else None (diffbench's own code)."""
+    plugin = plugin_of_module(methods.method_class(method).__module__)
+    if plugin is None or plugin.distribution == "diffbench":
+        return None
+    dist = f"{plugin.distribution} {plugin.version}" if plugin.distribution else "none"
+    return f"plugin {plugin.module} (dist {dist})"
+
+
+def plugin_failure(method: str, error: BaseException) -> str | None:
+    """``"plugin MODULE (dist NAME VERSION): method M: Error: message"`` when ``method``
+    comes from a plugin (:func:`plugin_label`), else None (diffbench's code: its bug)."""
+    label = plugin_label(method)
+    if label is None:
+        return None
+    text = str(error).strip().splitlines()
+    detail = f"{type(error).__name__}: {text[0]}" if text else type(error).__name__
+    return f"{label}: method {method}: {detail}"
+
+
+def _timed(
+    cell: Cell, timeout_s: float | None = None
+) -> tuple[list[dict[str, Any]], float] | Failed:
+    """The scores of ``cell`` and the seconds they took, or :class:`Failed` (a plugin's
+    error, or longer than ``timeout_s``); an error of diffbench's own methods propagates."""
     start = time.perf_counter()
-    scores = compute_cell(cell)
+    try:
+        with call_timeout(timeout_s):
+            scores = compute_cell(cell)
+    except CallTimeout:
+        label = plugin_label(cell.method)
+        where = f"{label}: method {cell.method}: " if label else ""
+        return Failed(f"{where}timed out after {timeout_s:g} s (--timeout)")
+    except Exception as error:
+        reason = plugin_failure(cell.method, error)
+        if reason is None:
+            raise
+        return Failed(reason)
     return scores, time.perf_counter() - start
 
 
@@ -104,6 +168,9 @@ class RunSummary:
     computed: int
     stored_by_others: int = 0
     reused: int = 0
+    failed: list[tuple[Cell, str]] = field(default_factory=list)
+    """The cells whose computation failed (:class:`Failed`) and why: recorded in the store's
+    failures, not stored as finished, so the next run computes them again."""
 
 
 def run(
@@ -111,6 +178,7 @@ def run(
     store: Store,
     progress: Callable[[Iterable, int], Iterable] | None = None,
     jobs: int = 1,
+    timeout_s: float | None = DEFAULT_TIMEOUT_S,
 ) -> RunSummary:
     """Compute every cell the store lacks and store each one as soon as it is finished.
 
@@ -121,6 +189,13 @@ def run(
     pending results (e.g. a tqdm bar). With ``jobs`` > 1 the cells are computed on that many
     local processes (:func:`bench.executor.ordered_map`); this process alone writes the store.
     An exception or interruption leaves every finished cell stored.
+
+    A computation that outlives ``timeout_s`` seconds (None: no limit;
+    :func:`bench.executor.call_timeout`), or a plugin's method that raises or returns what the
+    call contract refuses (wrong shape, NaN or inf marked valid), is a failed cell: recorded
+    with its reason (:meth:`bench.store.Store.add_failure`), listed in the summary, and the
+    run goes on. A failed cell is not a finished one: the next run computes it again. An
+    error of diffbench's own methods is a bug and propagates with its traceback.
     """
     cells = unique(cells)
     store.refresh()
@@ -138,11 +213,26 @@ def run(
             reused += sum(_store(store, cell, scores, source["elapsed_s"], source["key"])
                           for cell in group)  # fmt: skip
     todo = [group[0] for computation, group in twins.items() if computation not in done]
-    results = ordered_map(_timed, todo, jobs)
+    results = ordered_map(functools.partial(_timed, timeout_s=timeout_s), todo, jobs)
     paired = zip(todo, results, strict=True)
     iterable = progress(paired, len(todo)) if progress else paired
     computed = others = 0
-    for cell, (scores, elapsed) in iterable:
+    failed = []
+    for cell, result in iterable:
+        if isinstance(result, Failed):
+            for twin in twins[cell.computation]:
+                store.add_failure(
+                    task=twin.task,
+                    method=twin.method,
+                    params=twin.params,
+                    seed=twin.seed,
+                    role=twin.role.as_dict(),
+                    reason=result.reason,
+                    package=methods.package_of(twin.method),
+                )
+                failed.append((twin, result.reason))
+            continue
+        scores, elapsed = result
         stored = _store(store, cell, scores, elapsed)
         computed += stored
         others += not stored
@@ -154,6 +244,7 @@ def run(
         computed=computed,
         stored_by_others=others,
         reused=reused,
+        failed=failed,
     )
 
 
@@ -217,6 +308,21 @@ def _tune(job: TuningJob) -> dict[str, Any] | None:
 
     task = get_task(job.task)
     realisations = [task.tuning_data(seed) for seed in job.seeds]
+    try:
+        return _tuned(job, realisations)
+    except Exception as error:
+        reason = plugin_failure(job.method, error)
+        if reason is None:
+            raise
+        raise PluginFailed(f"{reason} (tuning it on {job.task})") from None
+
+
+class PluginFailed(Exception):
+    """A plugin's method failed where no failed cell can stand for it (a tuning): the
+    message names the plugin, its distribution and the error."""
+
+
+def _tuned(job: TuningJob, realisations) -> dict[str, Any] | None:
     try:
         result = tuning.tune(
             job.method,

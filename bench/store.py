@@ -1,14 +1,18 @@
 """The results store: append-only JSON Lines files that keep every good record through anything.
 
 A store is a folder (``<out>/store/``) holding one file per kind of record: ``cells.jsonl`` (one
-line per finished cell: its key, the role of its parameters, its scores) and ``tunings.jsonl``
-(one line per finished tuning). Each file starts with a header line; each run that writes to it
-adds one ``run`` line first (git revision, package versions, command), and its records name
-that run, so provenance is stored once per run, not on every row.
+line per finished cell: its key, the role of its parameters, its scores), ``tunings.jsonl``
+(one line per finished tuning) and, once a study outside the task model stores its rows there,
+``studies.jsonl`` (one line per study item: ``recommend-check``'s scenarios). Each file starts
+with a header line; each run that writes to it adds one ``run`` line first (git revision,
+package versions, command), and its records name that run, so provenance is stored once per
+run, not on every row.
 
 Guarantees
 ----------
-* **Atomic records.** A record is one line written by one ``os.write`` and then ``fsync``-ed,
+* **Atomic records.** A record is one line written by one ``os.write`` and then ``fsync``-ed
+  (a write the disk cuts short raises an ``OSError`` naming the file; its torn tail is set
+  aside like any other),
   under an exclusive lock (``filelock``) shared by every process that writes to the file.
 * **No duplicates.** Under the lock the writer first reads what other writers appended, and a
   record whose key is already stored is refused (``append`` returns False): two concurrent
@@ -26,6 +30,7 @@ Guarantees
 from __future__ import annotations
 
 import dataclasses
+import errno
 import json
 import os
 import uuid
@@ -68,6 +73,11 @@ class SetAside:
 
 class _BadRecord(ValueError):
     pass
+
+
+class StoreError(ValueError):
+    """A store this code cannot use as it is (another format version, not a store at all):
+    the message says what was found and what to do. Nothing is changed on disk."""
 
 
 @dataclasses.dataclass
@@ -145,10 +155,13 @@ class RecordFile:
                 return "bad", None, f"header of another file ({text.strip()[:80]})"
             if record.get("version") != VERSION:
                 version = record.get("version")
-                raise ValueError(
-                    f"{self.path} was written by another diffbench store version ({version}); "
-                    f"this diffbench reads version {VERSION}: use a matching diffbench or "
-                    "another --out directory"
+                newer = isinstance(version, int) and version > VERSION
+                raise StoreError(
+                    f"{self.path} was written by another diffbench store version: its header "
+                    f"says version {version!r}, this diffbench reads version {VERSION} only; "
+                    "read it with the diffbench that wrote it"
+                    f"{' (pip install -U diffbench)' if newer else ''}, or give another --out "
+                    "directory (or move this store away) to start a new one"
                 )
             return "header", record, ""
         if kind == "run":
@@ -203,7 +216,7 @@ class RecordFile:
         if tail:
             bad.append((len(lines) + 1, tail, "torn last line (a write cut short)"))
         if bad and not header_seen and not self.records and not self.runs:
-            raise ValueError(
+            raise StoreError(
                 f"{self.path} is not a diffbench store and holds no diffbench record; "
                 "move it away or choose another --out directory"
             )
@@ -226,17 +239,18 @@ class RecordFile:
                 "file": self.path.name, "line": number, "reason": reason, "found_utc": utc_now(),
                 "text": raw.decode("utf-8", errors="backslashreplace"),
             }) + "\n")  # fmt: skip
-        with open(self.quarantine_path, "a", encoding="utf-8") as handle:
-            handle.write("".join(entries))
-            handle.flush()
-            os.fsync(handle.fileno())
+        _append_whole(self.quarantine_path, "".join(entries).encode("utf-8"), create=True)
 
     def _replace(self, body: bytes) -> None:
         temporary = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
-        with open(temporary, "wb") as handle:
-            handle.write(body)
-            handle.flush()
-            os.fsync(handle.fileno())
+        try:
+            with open(temporary, "wb") as handle:
+                handle.write(body)
+                handle.flush()
+                os.fsync(handle.fileno())
+        except OSError as error:  # disk full, file size limit: the original stays as it was
+            temporary.unlink(missing_ok=True)
+            raise _naming(error, temporary) from None
         os.replace(temporary, self.path)
 
     def refresh(self) -> None:
@@ -281,17 +295,39 @@ class RecordFile:
                 data += (canonical(run) + "\n").encode()
                 self.runs[run["run"]] = run
             data += (canonical(record) + "\n").encode()
-            fd = os.open(self.path, os.O_WRONLY | os.O_APPEND)
-            try:
-                written = os.write(fd, data)
-                if written != len(data):
-                    raise OSError(f"short write to {self.path} ({written} of {len(data)} bytes)")
-                os.fsync(fd)
-            finally:
-                os.close(fd)
+            _append_whole(self.path, data)
             self._offset = self.path.stat().st_size
             self.records[record["key"]] = record
         return True
+
+
+def _naming(error: OSError, path: Path) -> OSError:
+    """``error`` with ``path`` as its file name (so it can be reported in one line)."""
+    if error.filename is not None or error.errno is None:
+        return error
+    return type(error)(error.errno, error.strerror, str(path))
+
+
+def _append_whole(path: Path, data: bytes, create: bool = False) -> None:
+    """Append ``data`` to ``path`` and ``fsync`` it; a write cut short (disk full, the file
+    size limit) is raised as an ``OSError`` naming the file and its cause. What it left is a
+    torn last line, which readers skip and the next opening sets aside (no good record is
+    touched). The caller holds the file's lock."""
+    flags = os.O_WRONLY | os.O_APPEND | (os.O_CREAT if create else 0)
+    try:
+        fd = os.open(path, flags, 0o644)
+        try:
+            view = memoryview(data)
+            while view:  # a short write is followed by one that fails with the cause
+                written = os.write(fd, view)
+                if written == 0:
+                    raise OSError(errno.EIO, "no bytes written", str(path))
+                view = view[written:]
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+    except OSError as error:
+        raise _naming(error, path) from None
 
 
 # --- cells ---------------------------------------------------------------------------------
@@ -385,8 +421,52 @@ def _check_tuning(record: dict) -> None:
         raise ValueError("`key` does not match the record's fields")
 
 
+# --- study rows ----------------------------------------------------------------------------
+def study_key(study: str, item: str, setting: Any) -> str:
+    """The identity of a study's rows: the study, the item they score (a scenario), and the
+    setting that changes them (e.g. the methods recommended among)."""
+    return canonical([study, item, setting])
+
+
+def _check_study(record: dict) -> None:
+    for name, kind in (("study", str), ("item", str), ("rows", list)):
+        if not isinstance(record.get(name), kind):
+            raise ValueError(f"`{name}` must be a {kind.__name__}")
+    for row in record["rows"]:  # [[column, value], ...]: the columns keep their order
+        if not (
+            isinstance(row, list)
+            and all(
+                isinstance(item, list) and len(item) == 2 and isinstance(item[0], str)
+                for item in row
+            )
+        ):
+            raise ValueError("`rows` must be lists of [column, value] pairs")
+    if record.get("key") != study_key(record["study"], record["item"], record.get("setting")):
+        raise ValueError("`key` does not match the record's study, item, setting")
+
+
+# --- failed cells ----------------------------------------------------------------------------
+def _check_failure(record: dict) -> None:
+    for name, kind in (
+        ("cell", str),
+        ("task", str),
+        ("method", str),
+        ("params", dict),
+        ("role", dict),
+        ("reason", str),
+    ):
+        if not isinstance(record.get(name), kind):
+            raise ValueError(f"`{name}` must be a {kind.__name__}")
+    role, seed = record["role"], record.get("seed")
+    if record["cell"] != cell_key(record["task"], record["method"], record["params"], seed, role):
+        raise ValueError("`cell` does not match the record's task, method, params, seed, role")
+    if record.get("key") != canonical([record["cell"], record.get("run")]):
+        raise ValueError("`key` does not match the record's cell and run")
+
+
 class Store:
-    """The results store of one output directory: cells and tunings (see module docstring).
+    """The results store of one output directory: cells and tunings (see module docstring),
+    and the rows of studies outside the task model (:meth:`add_study_rows`).
 
     >>> store = Store(Path("results"))  # doctest: +SKIP
     >>> store.cells_frame("paper-signal")  # tidy rows: one per cell x score  # doctest: +SKIP
@@ -397,9 +477,111 @@ class Store:
         self.cells = RecordFile(self.directory / "cells.jsonl", "cell", _check_cell)
         self.tunings = RecordFile(self.directory / "tunings.jsonl", "tuning", _check_tuning)
 
+        self._studies: RecordFile | None = None
+        self._failures: RecordFile | None = None
+
+    @property
+    def studies(self) -> RecordFile:
+        """``studies.jsonl``: each record the rows a study computed for one item (opened, so
+        created, on first use)."""
+        if self._studies is None:
+            self._studies = RecordFile(self.directory / "studies.jsonl", "study", _check_study)
+        return self._studies
+
+    @property
+    def failures(self) -> RecordFile:
+        """``failures.jsonl``: one record per failed attempt at a cell (per run), with its
+        reason (opened, so created, on first use; read at opening if it exists)."""
+        if self._failures is None:
+            self._failures = RecordFile(
+                self.directory / "failures.jsonl", "failure", _check_failure
+            )
+        return self._failures
+
     @property
     def set_aside(self) -> list[SetAside]:
-        return self.cells.set_aside + self.tunings.set_aside
+        extra = [
+            item
+            for file in (self._studies, self._failures)
+            if file is not None
+            for item in file.set_aside
+        ]
+        return self.cells.set_aside + self.tunings.set_aside + extra
+
+    def add_failure(
+        self,
+        *,
+        task: str,
+        method: str,
+        params: Mapping[str, Any],
+        seed: int,
+        role: Mapping[str, Any],
+        reason: str,
+        package: str = "unknown",
+    ) -> bool:
+        """Record that this run's attempt at a cell failed, and why (a timeout, a plugin's
+        error). The cell stays unfinished: a later run computes it again."""
+        cell = cell_key(task, method, params, seed, role)
+        record = {
+            "key": canonical([cell, CURRENT_RUN.run_id]),
+            "cell": cell,
+            "task": task,
+            "method": method,
+            "params": dict(params),
+            "seed": int(seed),
+            "role": dict(role),
+            "reason": str(reason),
+            "package": str(package),
+            "finished_utc": utc_now(),
+        }
+        return self.failures.append(record)
+
+    def failed_cells(self, task: str | Iterable[str] | None = None) -> pd.DataFrame:
+        """The cells of ``task`` whose last recorded attempt failed and that no run has
+        finished since: task, method, params (canonical JSON), seed, role (canonical JSON),
+        reason, package, finished_utc (of the failed attempt)."""
+        columns = ["task", "method", "params", "seed", "role", "reason", "package", "finished_utc"]
+        if self._failures is None and not (self.directory / "failures.jsonl").exists():
+            return pd.DataFrame(columns=columns)
+        wanted = None if task is None else ({task} if isinstance(task, str) else set(task))
+        last: dict[str, dict] = {}
+        for record in self.failures.records.values():  # in the order they were written
+            if record["cell"] not in self.cells.records:
+                if wanted is None or record["task"] in wanted:
+                    last[record["cell"]] = record
+        rows = [
+            [
+                r["task"],
+                r["method"],
+                canonical(r["params"]),
+                r["seed"],
+                canonical(r["role"]),
+                r["reason"],
+                r["package"],
+                r["finished_utc"],
+            ]
+            for r in last.values()
+        ]
+        return pd.DataFrame(rows, columns=columns)
+
+    def find_study_rows(self, study: str, item: str, setting: Any) -> list[dict] | None:
+        """The stored rows of ``study`` for ``item`` under ``setting``, None if not stored."""
+        record = self.studies.records.get(study_key(study, item, setting))
+        return None if record is None else [dict(row) for row in record["rows"]]
+
+    def add_study_rows(self, study: str, item: str, setting: Any, rows: list[dict]) -> bool:
+        """Store the rows ``study`` computed for ``item`` under ``setting`` (all in one
+        record: an item is stored whole or not at all); False if another writer stored them
+        first. ``setting`` must be JSON (a list of names, a dict)."""
+        record = {
+            "key": study_key(study, item, setting),
+            "study": study,
+            "item": item,
+            "setting": setting,
+            "rows": [[[str(k), v] for k, v in row.items()] for row in rows],
+            "finished_utc": utc_now(),
+        }
+        return self.studies.append(record)
 
     def has_cell(self, key: str) -> bool:
         return key in self.cells.records
@@ -407,6 +589,9 @@ class Store:
     def refresh(self) -> None:
         self.cells.refresh()
         self.tunings.refresh()
+        for file in (self._studies, self._failures):
+            if file is not None:
+                file.refresh()
 
     def add_cell(self, *, task: str, method: str, params: Mapping[str, Any], seed: int,
                  role: Mapping[str, Any], scores: list[dict[str, Any]],

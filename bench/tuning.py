@@ -234,6 +234,47 @@ class TuningResult:
     history: tuple = field(default=(), repr=False)
 
 
+def cutoff_range_hz(
+    realisation, criterion: str = "no-truth", region: str = "interior"
+) -> tuple[float, float]:
+    """The bandlimit guesses ``cutoff_hz`` the data-only ``criterion`` can use on
+    ``realisation``: from ``1 / duration`` (the lowest non-zero frequency the samples resolve,
+    the periodogram's first bin) up to, not including, the Nyquist frequency ``0.5 / dt``.
+
+    The duration is that of the samples the criterion's spectrum is taken on: the scored
+    samples (``region``) for the no-truth criterion, the whole record for PyNumDiff's loss.
+    A cutoff below the lowest bin leaves the no-truth criterion no signal band (only the mean)
+    and PyNumDiff's weight γ, which grows as ``cutoff_hz**-1.6``, a roughness penalty that
+    flattens every derivative.
+
+    >>> from types import SimpleNamespace
+    >>> cutoff_range_hz(SimpleNamespace(x=np.zeros(1000), dt_s=0.001), "pynumdiff")
+    (1.0, 500.0)
+    """
+    dt = float(realisation.dt_s)
+    samples = np.shape(realisation.x)[0]
+    if criterion == "no-truth" and region == "interior":
+        samples = int(np.count_nonzero(realisation.interior))
+    return 1.0 / (samples * dt), 0.5 / dt
+
+
+def check_cutoff(
+    cutoff_hz, realisation, criterion: str = "no-truth", region: str = "interior"
+) -> None:
+    """Raise ``ValueError`` naming ``cutoff_hz`` and the range that works
+    (:func:`cutoff_range_hz`) unless it lies in that range."""
+    if cutoff_hz is None:
+        raise ValueError(f"the {criterion} criterion needs `cutoff_hz` (a bandlimit guess)")
+    low, high = cutoff_range_hz(realisation, criterion, region)
+    number = isinstance(cutoff_hz, (int, float)) and not isinstance(cutoff_hz, bool)
+    if not (number and low <= cutoff_hz < high):
+        raise ValueError(
+            f"`cutoff_hz` must lie in [{low:.4g}, {high:.4g}) Hz for the {criterion} criterion: "
+            f"from 1/duration ({1 / low:.4g} s of samples, the lowest frequency they resolve) "
+            f"to below the Nyquist frequency; got {cutoff_hz!r}"
+        )
+
+
 def tune(
     name: str,
     realisations,
@@ -282,12 +323,7 @@ def tune(
     if order not in (1, 2):
         raise ValueError(f"`order` must be 1 or 2, got {order!r}")
     if criterion in ("no-truth", "pynumdiff"):
-        if cutoff_hz is None:
-            raise ValueError(f"the {criterion} criterion needs `cutoff_hz` (a bandlimit guess)")
-        nyquist = 0.5 / realisations[0].dt_s
-        if not (isinstance(cutoff_hz, (int, float)) and 0 < cutoff_hz < nyquist):
-            raise ValueError(f"`cutoff_hz` must lie strictly inside (0, {nyquist:g}) Hz (the "
-                             f"Nyquist frequency), got {cutoff_hz!r}")  # fmt: skip
+        check_cutoff(cutoff_hz, realisations[0], criterion, region)
     if criterion != "oracle" and not all(is_uniform(r) for r in realisations):
         raise ValueError(f"the {criterion} criterion needs uniform samples; tune irregularly "
                          "sampled records with 'oracle'")  # fmt: skip

@@ -56,6 +56,15 @@ def loaded_plugins() -> list[Plugin]:
     return list(_LOADED.values())
 
 
+def plugin_of_module(module: str) -> Plugin | None:
+    """The loaded plugin whose module is ``module`` or contains it (a method class's
+    ``__module__``), None for diffbench's own code."""
+    for plugin in _LOADED.values():
+        if f"{module}.".startswith(f"{plugin.module}."):
+            return plugin
+    return None
+
+
 def note_missing(prefix: str, hint: str) -> None:
     """Record that the methods named ``prefix.*`` are absent because a package is not
     installed, and how to get it (a plugin calls this instead of registering them)."""
@@ -79,8 +88,9 @@ def missing_hint(name: str) -> str:
 def load_plugin(module: str, found_by: str = "--plugin") -> Plugin:
     """Import ``module`` (registering its methods) unless it is loaded already.
 
-    Raises ``ValueError`` naming the module if it cannot be found; an error raised by the
-    plugin's own code propagates as it is (it is the plugin's bug, not a usage error).
+    Raises ``ValueError`` naming the module and what went wrong if it cannot be found or its
+    import fails (an exception, or ``sys.exit`` called while importing): the plugin is the
+    user's choice, so its failure is the user's to fix, in one line, not diffbench's bug.
     """
     name = module.strip()
     if not name or not all(part.isidentifier() for part in name.split(".")):
@@ -97,10 +107,24 @@ def load_plugin(module: str, found_by: str = "--plugin") -> Plugin:
                     f"plugin module {name!r} cannot be imported ({error}); install the package "
                     f"that provides it or add its folder to PYTHONPATH"
                 ) from None
-            raise
+            raise ValueError(_import_failure(name, error)) from None
+        except (Exception, SystemExit) as error:  # the plugin's own code failed on import
+            raise ValueError(_import_failure(name, error)) from None
         plugin = Plugin(name, found_by, *_distribution_of(name))
         _LOADED[name] = plugin
         return plugin
+
+
+def _import_failure(name: str, error: BaseException) -> str:
+    """One line: which plugin module failed to import, and how."""
+    if isinstance(error, SystemExit):
+        how = f"it called sys.exit({error.code!r}) while being imported"
+    else:
+        detail = str(error).splitlines()[0] if str(error) else ""
+        how = f"{type(error).__name__}: {detail}" if detail else type(error).__name__
+    shipped = _distribution_of(name)[0]
+    where = f" (from {shipped})" if shipped else ""
+    return f"plugin module {name!r}{where} failed to import: {how}"
 
 
 def load_automatic_plugins() -> None:
@@ -115,7 +139,7 @@ def load_automatic_plugins() -> None:
         ):
             try:
                 loaded = entry_point.load()
-            except Exception as error:
+            except (Exception, SystemExit) as error:  # sys.exit on import must not end us
                 shipped = entry_point.dist.name if entry_point.dist else "an unknown package"
                 warnings.warn(
                     f"diffbench plugin {entry_point.name!r} ({entry_point.value}, from "

@@ -1,0 +1,399 @@
+"""The bad cases of issue 43's adversarial battery, each run as a real ``diffbench`` process:
+one clear line and a non-zero exit (2 for what the user must fix), or a clear warning and a
+correct result, and nothing stored lost."""
+
+import json
+import os
+import resource
+import subprocess
+import sys
+import textwrap
+import uuid
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from diffbench.bench import tuning
+from diffbench.bench.store import Store
+from diffbench.bench.tasks import get_task
+
+PLUGIN = textwrap.dedent(
+    """
+    import time
+
+    import numpy as np
+
+    from diffbench.methods import Method, register
+
+
+    class _Base(Method):
+        linear = False
+        reference = "test"
+
+        def _estimate(self, x, dt, orders):
+            valid = {o: np.ones(x.shape[0], bool) for o in orders}
+            return self._values(x, orders), valid
+
+
+    @register("bad.raises")
+    class Raises(_Base):
+        def _values(self, x, orders):
+            raise RuntimeError("the plugin's own bug")
+
+
+    @register("bad.shape")
+    class Shape(_Base):
+        def _values(self, x, orders):
+            return {o: np.zeros(x.shape[0] + 1) for o in orders}
+
+
+    @register("bad.nan")
+    class Nan(_Base):
+        def _values(self, x, orders):
+            return {o: np.full(x.shape, np.nan) for o in orders}
+
+
+    @register("bad.inf")
+    class Inf(_Base):
+        def _values(self, x, orders):
+            return {o: np.full(x.shape, np.inf) for o in orders}
+
+
+    @register("bad.hangs")
+    class Hangs(_Base):
+        def _values(self, x, orders):
+            while True:
+                time.sleep(0.01)
+    """
+)
+
+
+def _diffbench(*argv, env=None, **options):
+    return subprocess.run(
+        [sys.executable, "-m", "diffbench.bench", *map(str, argv)],
+        capture_output=True,
+        text=True,
+        env={**os.environ, **(env or {})},
+        timeout=300,
+        **options,
+    )
+
+
+def _one_error_line(result, message: str, code: int = 2) -> None:
+    assert result.returncode == code, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("diffbench: error:"), result.stderr
+    assert message in lines[0], lines[0]
+
+
+@pytest.fixture
+def plugin(tmp_path):
+    folder = tmp_path / "plugin"
+    folder.mkdir()
+    (folder / "bad_methods.py").write_text(PLUGIN)
+    return {"PYTHONPATH": str(folder)}
+
+
+# 1 -----------------------------------------------------------------------------------------
+def test_a_cutoff_below_what_the_record_resolves_or_at_nyquist_is_refused(tmp_path):
+    """paper-signal: 1001 samples 1 ms apart, 701 interior ones (what the no-truth spectrum is
+    taken on): cutoffs from 1/0.701 s = 1.427 Hz up to below 500 Hz; PyNumDiff's loss reads the
+    record, 1/1.001 s."""
+    realisation = get_task("paper-signal").tuning_data(10_000)
+    low, high = tuning.cutoff_range_hz(realisation, "no-truth")
+    assert (low, high) == (1 / (701 * 0.001), 0.5 / 0.001)
+    assert tuning.cutoff_range_hz(realisation, "pynumdiff")[0] == 1 / (1001 * 0.001)
+    with pytest.raises(ValueError, match=r"`cutoff_hz` must lie in \[1.427, 500\) Hz"):
+        tuning.tune("kalman", realisation, 2, "no-truth", cutoff_hz=1e-300)
+    tuning.check_cutoff(low, realisation, "no-truth")  # the bounds that work are accepted
+    tuning.check_cutoff(499.9, realisation, "no-truth")
+    for cutoff in ("1e-300", "1.4", "500"):
+        result = _diffbench(
+            "tune",
+            "kalman",
+            "paper-signal",
+            "--criteria",
+            "no-truth",
+            "--cutoff-hz",
+            cutoff,
+            "--out",
+            tmp_path,
+        )
+        _one_error_line(
+            result,
+            "--cutoff-hz on paper-signal: `cutoff_hz` must lie in "
+            "[1.427, 500) Hz for the no-truth criterion",
+        )
+    assert not Store(tmp_path / "store").tunings.records  # nothing stored as a tuning
+
+
+# 2 -----------------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (
+            ["run", "paper-signal", "--seeds", "99999999999999999999"],
+            "--seeds: must be a whole number >= 1 and <= 10_000",
+        ),
+        (["grid", "--seeds", "10001"], "--seeds: must be a whole number >= 1 and <= 10_000"),
+        (
+            ["tune", "kalman", "paper-signal", "--tuning-seeds", "101"],
+            "--tuning-seeds: must be a whole number >= 1 and <= 100",
+        ),
+        (
+            ["tune", "kalman", "paper-signal", "--tuning-seed", "99999999999999999999"],
+            "--tuning-seed: must be a whole number >= 0 and <= 4_294_967_295",
+        ),
+        (
+            [
+                "tune",
+                "kalman",
+                "paper-signal",
+                "--tuning-seed",
+                "4294967295",
+                "--tuning-seeds",
+                "2",
+            ],
+            "goes past the largest seed 4294967295; choose a tuning seed <= 4294967294",
+        ),
+        (
+            ["export", "paper-signal", "x.csv", "--seed", "-1"],
+            "--seed: must be a whole number >= 0 and <= 4_294_967_295",
+        ),
+        (["run", "paper-signal", "--jobs", "100000"], "--jobs: must be a whole number >= 1"),
+    ],
+)
+def test_seeds_and_counts_are_bounded(argv, message, tmp_path):
+    _one_error_line(
+        _diffbench(*argv, "--out", tmp_path)
+        if argv[0] != "export"
+        else _diffbench(*argv, cwd=tmp_path),
+        message,
+    )
+    assert not (tmp_path / "store").exists()
+
+
+# 3 -----------------------------------------------------------------------------------------
+def test_a_torn_line_in_recommend_checks_rows_is_set_aside_and_the_run_resumes(tmp_path):
+    argv = [
+        "recommend-check",
+        "--scenarios",
+        "grid-gaussian-0.2-10ms",
+        "--methods",
+        "spectral,butterworth",
+        "--out",
+        tmp_path,
+    ]
+    first = _diffbench(*argv)
+    assert first.returncode == 0, first.stderr
+    assert "grid-gaussian-0.2-10ms: " in first.stdout
+    table = (tmp_path / "recommend-validation" / "validation.csv").read_text()
+    rows = tmp_path / "store" / "studies.jsonl"
+    with rows.open("a") as stream:
+        stream.write('{"key":"[\\"recommend-validation\\",\\"grid-gau')  # a killed writer's
+    again = _diffbench(*argv)
+    assert again.returncode == 0, again.stderr
+    assert "grid-gaussian-0.2-10ms: " not in again.stdout  # nothing recomputed
+    assert "set aside studies.jsonl line" in again.stderr and "torn last line" in again.stderr
+    assert (tmp_path / "recommend-validation" / "validation.csv").read_text() == table
+    stored = Store(tmp_path / "store").studies.records
+    assert [record["item"] for record in stored.values()] == ["grid-gaussian-0.2-10ms"]
+    rows = Store(tmp_path / "store").find_study_rows(
+        "recommend-validation", "grid-gaussian-0.2-10ms", ["spectral", "butterworth"]
+    )
+    assert [row["order"] for row in rows] == [1, 2]
+
+
+# 4 -----------------------------------------------------------------------------------------
+def _processes_marked(mark: str) -> list[int]:
+    found = []
+    for entry in Path("/proc").iterdir():
+        try:
+            if entry.name.isdigit() and mark.encode() in (entry / "environ").read_bytes():
+                found.append(int(entry.name))
+        except OSError:
+            continue
+    return found
+
+
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_a_method_that_never_returns_times_out_as_a_failed_cell(jobs, tmp_path, plugin):
+    mark = f"DIFFBENCH_TEST_{uuid.uuid4().hex}"
+    argv = [
+        "run",
+        "paper-signal",
+        "--plugin",
+        "bad_methods",
+        "--seeds",
+        "2",
+        "--no-progress",
+        "--methods",
+        "bad.hangs,finite_difference",
+        "--timeout",
+        "1",
+        "--jobs",
+        jobs,
+        "--out",
+        tmp_path,
+    ]
+    result = _diffbench(*argv, env={**plugin, mark: "1"})
+    assert result.returncode == 0, result.stderr
+    assert "2 cells computed, 0 already stored, 2 failed" in result.stdout
+    for seed in (0, 1):
+        assert (
+            f"cell failed: bad.hangs on paper-signal seed {seed}: plugin bad_methods "
+            "(dist none): method bad.hangs: timed out after 1 s (--timeout)"
+        ) in result.stderr
+    failed = pd.read_csv(tmp_path / "paper-signal" / "failed.csv")
+    assert sorted(failed["seed"]) == [0, 1] and set(failed["method"]) == {"bad.hangs"}
+    store = Store(tmp_path / "store")
+    assert {r["method"] for r in store.cells.records.values()} == {"finite_difference"}
+    assert _processes_marked(mark) == []  # no worker left behind
+
+
+# 5 -----------------------------------------------------------------------------------------
+def test_a_plugin_method_that_fails_is_a_named_failed_cell_retried_by_the_next_run(
+    tmp_path, plugin
+):
+    argv = [
+        "run",
+        "paper-signal",
+        "--plugin",
+        "bad_methods",
+        "--seeds",
+        "1",
+        "--no-progress",
+        "--methods",
+        "bad.raises,bad.shape,bad.nan,bad.inf,finite_difference",
+        "--out",
+        tmp_path,
+    ]
+    result = _diffbench(*argv, env=plugin)
+    assert result.returncode == 0, result.stderr
+    assert "Traceback" not in result.stderr
+    assert "1 cells computed, 0 already stored, 4 failed" in result.stdout
+    prefix = "cell failed: {} on paper-signal seed 0: plugin bad_methods (dist none): method {}: "
+    for name, reason in [
+        ("bad.raises", "RuntimeError: the plugin's own bug"),
+        ("bad.shape", "ValueError: valid mask of order 0 does not match the time axis"),
+        ("bad.nan", "ValueError: order 0: the estimate is not finite exactly on its valid"),
+        ("bad.inf", "ValueError: order 0: the estimate is not finite exactly on its valid"),
+    ]:
+        assert prefix.format(name, name) + reason in result.stderr
+    assert "4 cells of paper-signal failed and are not in its tables" in result.stderr
+    failed = pd.read_csv(tmp_path / "paper-signal" / "failed.csv")
+    assert sorted(failed["method"]) == ["bad.inf", "bad.nan", "bad.raises", "bad.shape"]
+    # a failed cell is not a finished one: the next run tries it again, and only it
+    again = _diffbench(*argv, env=plugin)
+    assert again.returncode == 0, again.stderr
+    assert "0 cells computed, 1 already stored, 4 failed" in again.stdout
+    store = Store(tmp_path / "store")
+    assert len(store.cells.records) == 1 and len(store.failures.records) == 8
+    assert len(store.failed_cells("paper-signal")) == 4
+
+
+# 6 -----------------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("code", "message"),
+    [
+        (
+            "import no_such_dependency_xyz\n",
+            "--plugin: plugin module 'broken' failed to import: ModuleNotFoundError: No module "
+            "named 'no_such_dependency_xyz'",
+        ),
+        (
+            "import sys\nsys.exit(3)\n",
+            "--plugin: plugin module 'broken' failed to import: it called sys.exit(3) while "
+            "being imported",
+        ),
+    ],
+)
+def test_a_plugin_module_that_fails_to_import_is_one_line(code, message, tmp_path):
+    (tmp_path / "broken.py").write_text(code)
+    result = _diffbench("list", "--plugin", "broken", env={"PYTHONPATH": str(tmp_path)})
+    _one_error_line(result, message)
+    assert result.stdout == ""
+
+
+# 7 -----------------------------------------------------------------------------------------
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="no /dev/full on this system")
+def test_a_full_disk_on_the_output_is_one_line():
+    with open("/dev/full", "w") as full:
+        result = subprocess.run(
+            [sys.executable, "-m", "diffbench.bench", "list"],
+            stdout=full,
+            stderr=subprocess.PIPE,
+            text=True,
+            timeout=300,
+        )
+    _one_error_line(result, "No space left on device: the standard output")
+
+
+def test_the_file_size_limit_during_a_run_is_one_line_and_the_run_resumes(tmp_path):
+    """8 kB holds the header and a few cells of 1.3 kB: the limit falls inside the run."""
+    argv = [
+        "run",
+        "paper-signal",
+        "--seeds",
+        "3",
+        "--no-progress",
+        "--methods",
+        "butterworth,finite_difference",
+        "--out",
+        tmp_path,
+    ]
+
+    def limited():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (8192, 8192))
+
+    result = _diffbench(*argv, preexec_fn=limited)
+    cells = tmp_path / "store" / "cells.jsonl"
+    _one_error_line(result, f"File too large: {cells}")
+    kept = [json.loads(line) for line in cells.read_bytes().split(b"\n")[:-1]]
+    kept = {r["key"] for r in kept if r.get("record") == "cell"}
+    assert 1 <= len(kept) < 6
+    again = _diffbench(*argv)
+    assert again.returncode == 0, again.stderr
+    assert f"{6 - len(kept)} cells computed, {len(kept)} already stored" in again.stdout
+    assert "torn last line" in again.stderr
+    store = Store(tmp_path / "store")
+    assert len(store.cells.records) == 6 and kept <= set(store.cells.records)
+
+
+# 8 -----------------------------------------------------------------------------------------
+def test_a_store_of_another_format_version_is_one_line(tmp_path):
+    cells = tmp_path / "store" / "cells.jsonl"
+    cells.parent.mkdir()
+    header = '{"format":"diffbench-store","kind":"cell","record":"header","version":2}\n'
+    cells.write_text(header)
+    result = _diffbench(
+        "run", "paper-signal", "--seeds", "1", "--methods", "butterworth", "--out", tmp_path
+    )
+    _one_error_line(
+        result,
+        f"{cells} was written by another diffbench store version: its "
+        "header says version 2, this diffbench reads version 1 only; read it with "
+        "the diffbench that wrote it (pip install -U diffbench), or give another "
+        "--out directory",
+    )
+    assert cells.read_text() == header
+
+
+def test_a_plugin_method_that_fails_while_tuned_is_one_line(tmp_path, plugin):
+    result = _diffbench(
+        "tune",
+        "bad.raises",
+        "paper-signal",
+        "--plugin",
+        "bad_methods",
+        "--no-progress",
+        "--out",
+        tmp_path,
+        env=plugin,
+    )
+    _one_error_line(
+        result,
+        "plugin bad_methods (dist none): method bad.raises: RuntimeError: "
+        "the plugin's own bug (tuning it on paper-signal)",
+    )
