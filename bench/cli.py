@@ -16,6 +16,7 @@ import math
 import os
 import signal
 import sys
+import warnings
 from importlib import metadata
 from pathlib import Path
 
@@ -878,9 +879,10 @@ def _cmd_recommend(args) -> None:
     names = _method_names(args.methods)
     with user_input():
         record = user_data.read_record(args.file, args.columns, args.time, args.dt)
-    results = recommend.recommend_record(
-        record, names, tuple(args.orders), max_evaluations=args.budget
-    )
+    with user_input():
+        results = recommend.recommend_record(
+            record, names, tuple(args.orders), max_evaluations=args.budget
+        )
     out = args.out if args.out is not None else Path(f"recommend-{args.file.stem}")
     for channel, (advice, _) in results.items():
         for order in args.orders:
@@ -956,11 +958,22 @@ def main(argv: list[str] | None = None) -> int:
     if stdout is not None and stdout is sys.__stdout__:
         sys.stdout = _NamedOutput(stdout)  # its OSErrors name it (e.g. `> /dev/full`)
     try:
-        return _main(argv)
+        with warnings.catch_warnings():  # restores the caller's warning display afterwards
+            warnings.showwarning = functools.partial(_one_line_warning, warnings.showwarning)
+            return _main(argv)
     finally:
         # called in-process (a test, a script), the caller keeps its own SIGTERM handling
         signal.signal(signal.SIGTERM, previous)
         sys.stdout = stdout
+
+
+def _one_line_warning(fallback, message, category, filename, lineno, file=None, line=None):
+    """diffbench's own warnings (about the user's record, a failed cell...) as one line on
+    stderr, ``diffbench: warning: ...``; other packages' by ``fallback`` (the usual form)."""
+    if category.__module__.startswith("diffbench."):
+        print(f"diffbench: warning: {message}", file=sys.stderr if file is None else file)
+    else:
+        fallback(message, category, filename, lineno, file, line)
 
 
 class _NamedOutput:

@@ -325,12 +325,17 @@ def write_error_figure(table: pd.DataFrame, path: Path, title: str, *,
                  "whisker cut there (log axis).", fontsize=7)  # fmt: skip
     fig.tight_layout(rect=(0, bottom, 1, 1))
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, metadata=PNG_METADATA)
     plt.close(fig)
     return path
 
 
 # --- drawing helpers shared with bench/paper.py --------------------------------------------
+PNG_METADATA = {"Software": None}
+"""What a PNG says of its maker: nothing (matplotlib writes its version by default), so that a
+figure's bytes depend on its data and its drawing alone."""
+
+
 def pyplot():
     """``matplotlib.pyplot`` on the Agg backend (imported on first use)."""
     import matplotlib
@@ -345,7 +350,7 @@ def save_figure(fig, path: Path, *, tight: bool = True) -> Path:
     """Lay out (unless ``tight`` is false), write the PNG at 120 dpi and free the figure."""
     if tight:
         fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, metadata=PNG_METADATA)
     pyplot().close(fig)
     return path
 

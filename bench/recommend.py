@@ -33,6 +33,7 @@ import numpy as np
 import pandas as pd
 
 from diffbench import methods
+from diffbench.bench import figures
 from diffbench.bench.scores import error_metrics
 from diffbench.bench.spectrum import RecordSpectrum, record_spectrum
 from diffbench.bench.surrogates import default_scored, surrogate_records
@@ -339,7 +340,7 @@ def _figure(record, results, time, path: Path) -> None:
         axes[row, 2].set(xlabel="f [Hz]", ylabel=f"periodogram{scaled}", title="spectrum")
         axes[row, 2].legend()
     figure.tight_layout()
-    figure.savefig(path, dpi=110)
+    figure.savefig(path, dpi=110, metadata=figures.PNG_METADATA)
     plt.close(figure)
 
 

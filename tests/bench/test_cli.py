@@ -116,7 +116,7 @@ def test_repeated_method_names_run_once(tmp_path, capsys):
         (["tune", "all", "paper-signal", "--criteria", "pynumdiff", "--cutoff-hz", "inf"],
          "--cutoff-hz: must be a finite number > 0, got inf"),
         (["tune", "all", "paper-signal", "--criteria", "no-truth", "--cutoff-hz", "500"],
-         "--cutoff-hz must lie strictly inside (0, 500) Hz"),
+         "`cutoff_hz` must lie in [1.427, 500) Hz"),
         (["tune", "all", "paper-signal", "--criteria", "magic"], "--criteria: must be among"),
         (["tune", "all", "paper-signal", "--orders", "3"], "--orders: must be 1, 2 or 1,2"),
         (["tune", "all", "robot-sim"], "task 'robot-sim' cannot be tuned"),

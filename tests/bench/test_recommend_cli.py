@@ -106,10 +106,10 @@ def test_recommend_check_scores_the_choice_against_the_truth_and_resumes(tmp_pat
     assert set(table["pynumdiff_choice"]) <= {"spectral", "butterworth"}
     np.testing.assert_allclose(table["pynumdiff_ratio"], table["pynumdiff_rmse"] / best)
     assert (table["pynumdiff_ratio"] >= 1.0).all()
-    rows = (directory / "rows.jsonl").read_text()
+    rows = (tmp_path / "store" / "studies.jsonl").read_text()
     assert "median" in (directory / "validation.md").read_text()
     capsys.readouterr()
     assert main(argv) == 0
     assert "grid-gaussian-0.2-10ms:" not in capsys.readouterr().out  # nothing recomputed
-    assert (directory / "rows.jsonl").read_text() == rows
+    assert (tmp_path / "store" / "studies.jsonl").read_text() == rows
     assert main([*argv[:2], "no-such-scenario"]) == 2

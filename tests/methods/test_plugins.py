@@ -108,11 +108,13 @@ def test_a_broken_installed_plugin_is_skipped_with_a_warning(tmp_path):
     assert "savitzky_golay" in result.stdout
 
 
-def test_a_plugin_that_fails_inside_its_own_code_is_an_internal_error(tmp_path):
+def test_a_plugin_that_fails_to_import_is_one_line_naming_it(tmp_path):
     (tmp_path / "buggy_plugin.py").write_text("import no_such_dependency_of_the_plugin\n")
     result = _diffbench("list", "--plugin", "buggy_plugin", env={"PYTHONPATH": str(tmp_path)})
-    assert result.returncode == 1
-    assert "Traceback" in result.stderr and "no_such_dependency_of_the_plugin" in result.stderr
+    assert result.returncode == 2
+    assert "Traceback" not in result.stderr
+    assert "plugin module 'buggy_plugin' failed to import: ModuleNotFoundError" in result.stderr
+    assert "no_such_dependency_of_the_plugin" in result.stderr
 
 
 def test_the_generated_contract_tests_cover_a_plugin_method():
