@@ -4,6 +4,7 @@ the argument and say what is allowed."""
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Iterable
 
 import numpy as np
@@ -44,14 +45,56 @@ class DeferredValueError(ValueError):
         return (ValueError, (str(self),))
 
 
-def check_dt(dt: float) -> float:
-    """Return ``dt`` as a float, or raise ``ValueError`` if it is not a finite number > 0."""
-    try:
-        value = float(dt)
-    except (TypeError, ValueError):
-        raise ValueError(f"`dt` must be a finite number > 0 (seconds), got {dt!r}") from None
+class ArgumentTypeError(ValueError, TypeError):
+    """An argument of the wrong type (a bool or a string for a step, complex samples, one
+    order where a sequence of them is asked for). Both a ``ValueError``, as every bad input
+    of the API is (the CLI turns it into a usage error), and a ``TypeError``, as Python's
+    convention has it (scikit-learn's ``InvalidParameterError`` does the same)."""
+
+
+MIN_STEP_S = 1e-30
+MAX_STEP_S = 1e30
+r"""The sampling steps the methods take, in seconds: :math:`[10^{-30}, 10^{30}]`.
+
+The methods form powers of the step and of its inverse up to the tenth (the finite
+differences' :math:`\Delta t^{-2}`, the powers of a Kalman model's discretisation and of a
+high-gain observer's gains, Levant's Taylor terms :math:`\Delta t^{j}`); within this range
+every such power stays a finite, nonzero float64 (:math:`10^{\pm 300}`). Outside it they
+overflow or underflow (``dt=1e-300`` divided by zero, ``dt=1e300`` overflowed): rescale the
+time axis (e.g. give the step in other units and scale the derivatives back)."""
+
+
+def _is_real_number(value) -> bool:
+    """A real scalar: a ``numbers.Real`` (Python's or numpy's ints and floats, fractions) or a
+    0-d numpy array of ints or floats; not a bool, a string, a complex or a longer array."""
+    if isinstance(value, (bool, np.bool_)):
+        return False
+    if isinstance(value, np.ndarray):
+        return value.ndim == 0 and value.dtype.kind in "iuf"
+    return isinstance(value, numbers.Real)
+
+
+def check_dt(dt: float, name: str = "dt") -> float:
+    """Return ``dt`` as a float, or raise if it is not a number in
+    [:data:`MIN_STEP_S`, :data:`MAX_STEP_S`] seconds: :class:`ArgumentTypeError` for a bool,
+    a string, a complex or an array, ``ValueError`` for a value out of range (``name``: how the
+    message calls the step)."""
+    allowed = f"a number of seconds in [{MIN_STEP_S:g}, {MAX_STEP_S:g}]"
+    if not _is_real_number(dt):
+        what = "a bool is not a step" if isinstance(dt, (bool, np.bool_)) else "not a number"
+        raise ArgumentTypeError(
+            f"`{name}` must be {allowed}, got {dt!r} ({what}; give the sampling step as a "
+            "float, e.g. 0.001)"
+        )
+    value = float(dt)
     if not math.isfinite(value) or value <= 0:
-        raise ValueError(f"`dt` must be a finite number > 0 (seconds), got {dt!r}")
+        raise ValueError(f"`{name}` must be a finite number > 0, i.e. {allowed}, got {value!r}")
+    if not MIN_STEP_S <= value <= MAX_STEP_S:
+        raise ValueError(
+            f"`{name}` must be {allowed}, got {value!r} (the powers of the step the methods form "
+            "would overflow or underflow float64; rescale the time axis: give the step in "
+            "other units and scale the derivatives back)"
+        )
     return value
 
 
@@ -96,21 +139,19 @@ def check_signal(x, dt: float, min_samples: int = 2) -> tuple[np.ndarray, float]
     x : array_like, shape (n,) or (n, ...)
         Samples, time on axis 0; further axes are channels.
     dt : float
-        Sampling step in seconds, finite and > 0.
+        Sampling step in seconds, in [:data:`MIN_STEP_S`, :data:`MAX_STEP_S`].
     min_samples : int
         Least number of samples the caller needs (e.g. its window length).
 
     Raises
     ------
     ValueError
-        If ``x`` is not numeric, is 0-d, has fewer than ``min_samples`` samples on axis 0, or
-        holds NaN or inf; if ``dt`` is not finite and > 0.
+        If ``x`` is not numeric (complex included: :class:`ArgumentTypeError`), is 0-d, has
+        fewer than ``min_samples`` samples on axis 0, or holds NaN or inf; if ``dt`` is not a
+        number in [:data:`MIN_STEP_S`, :data:`MAX_STEP_S`] s (:func:`check_dt`).
     """
     dt = check_dt(dt)
-    try:
-        array = np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"`x` must be an array of real numbers, got {type(x).__name__}") from None
+    array = as_real_array("x", x, "samples", allow_bool=True)
     if array.ndim == 0:
         raise ValueError("`x` must have time on axis 0 (shape (n,) or (n, channels)), got a scalar")
     if array.shape[0] < min_samples:
@@ -126,6 +167,11 @@ def check_signal(x, dt: float, min_samples: int = 2) -> tuple[np.ndarray, float]
 
 def check_orders(orders: Iterable[int]) -> tuple[int, ...]:
     """Return the sorted, de-duplicated derivative orders, each an int in 0..MAX_ORDER."""
+    if isinstance(orders, (str, bytes)) or not isinstance(orders, Iterable):
+        raise ArgumentTypeError(
+            f"`orders` must be a sequence of derivative orders in 0..{MAX_ORDER}, e.g. (1,) or "
+            f"(0, 1, 2), got {orders!r}"
+        )
     result = []
     for order in orders:
         if isinstance(order, bool) or not isinstance(order, (int, np.integer)):
@@ -186,10 +232,7 @@ def check_times(t, n: int | None = None) -> np.ndarray:
 
     Raises ``ValueError`` naming ``t`` and the fix otherwise.
     """
-    try:
-        times = np.asarray(t, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"`t` must be an array of real times, got {type(t).__name__}") from None
+    times = as_real_array("t", t, "times")
     if times.ndim != 1 or times.size < 2:
         raise ValueError(f"`t` must be a 1-D array of at least 2 times, got shape {times.shape}")
     if n is not None and times.size != n:
@@ -206,7 +249,41 @@ def check_times(t, n: int | None = None) -> np.ndarray:
             f"`t` must be strictly increasing; t[{first + 1}]={float(times[first + 1])!r} <= "
             f"t[{first}]={float(times[first])!r} (sort it and drop duplicates)"
         )
+    step = mean_step(times)
+    if not MIN_STEP_S <= step <= MAX_STEP_S:
+        raise ValueError(
+            f"`t` must have a mean step in [{MIN_STEP_S:g}, {MAX_STEP_S:g}] s, got {step!r} s "
+            "(the powers of the step the methods form would overflow or underflow float64; "
+            "rescale the time axis: give the times in other units and scale the derivatives "
+            "back)"
+        )
     return times
+
+
+def as_real_array(name: str, value, what: str, allow_bool: bool = False) -> np.ndarray:
+    """``value`` as a float64 array, or :class:`ArgumentTypeError` naming ``name`` if it holds
+    anything but real numbers (complex, strings, objects; bools unless ``allow_bool``: samples
+    of a digital line are 0 and 1, time stamps are never bools)."""
+    try:
+        array = np.asarray(value)
+    except (TypeError, ValueError):
+        array = None
+    if array is not None and np.iscomplexobj(array):
+        raise ArgumentTypeError(
+            f"`{name}` must hold real {what}, got complex values (give the real and imaginary "
+            f"parts separately: `{name}.real`, `{name}.imag`)"
+        )
+    if array is not None and array.dtype == np.bool_ and not allow_bool:
+        raise ArgumentTypeError(
+            f"`{name}` must hold real {what}, got booleans (convert them to numbers first if "
+            "that is meant)"
+        )
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ArgumentTypeError(
+            f"`{name}` must be an array of real numbers, got {type(value).__name__}"
+        ) from None
 
 
 def mean_step(times: np.ndarray) -> float:

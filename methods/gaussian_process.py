@@ -251,6 +251,12 @@ class _ToeplitzKernel:
         (2003), algorithm 9.1.
         """
         y = np.asarray(y, dtype=float)
+        peak = np.max(np.abs(y), axis=0) if y.size else np.zeros(y.shape[1:])
+        if np.any((peak > 0) & ((peak < 2.0**-400) | (peak > 2.0**400))):
+            # columns far from 1 (3e-137 once made r'z underflow to 0/0): solved scaled by a
+            # power of two, which changes no rounding, then scaled back
+            power = np.ldexp(1.0, -np.frexp(np.where(peak > 0, peak, 1.0))[1])
+            return self.solve(y * power) / power
         target = SOLVER_TOLERANCE * np.sqrt(_column_dots(y, y))
         solution = np.zeros_like(y)
         moving = np.flatnonzero(target > 0)  # a zero column's solution is zero
