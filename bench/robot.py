@@ -7,8 +7,9 @@ from __future__ import annotations
 import functools
 import hashlib
 import math
+import numbers
 from collections import OrderedDict
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -21,7 +22,7 @@ from diffbench.bench.identification import (
 )
 from diffbench.methods import Method
 from diffbench.signals import robot2r
-from diffbench.signals.dfki import DFKI_RUNS
+from diffbench.signals.dfki import DFKI_RUNS, PACKAGED_DESIGN, PendulumModel, packaged_model
 
 EDGE_SAMPLES = 4  # decimated samples dropped at each end (start-up of the decimation filter)
 PASSBAND_PER_BANDWIDTH = 5.0  # F_p = 5 x the position-loop bandwidth (the paper's rule)
@@ -174,14 +175,20 @@ class DfkiCrossValidation:
     time stamps of every run (``method(q, nominal_dt_s, t=t)``: natively or through its
     resampling path), on the samples ``interior_margin_s`` inside each end. The base parameters
     are identified by IDIM-LS (both sides of W X = Y decimated alike, F_p = ``passband_hz``:
-    Gautier's parallel filtering) on every run but k, with A4 tied to A6 by the lab's l1 and g
-    (``tie_a4``); the identified model then predicts the torque of run k at its logged time
+    Gautier's parallel filtering) on every run but k, with A4 tied to A6 by the robot model's
+    l1 and g (``tie_a4``); the identified model then predicts the torque of run k at its logged time
     stamps, and is scored by the RMSE against the **measured torque as logged** (raw), per
     actuated joint (a joint whose commanded torque is identically zero is passive: its measured
     torque is only the driver's noise), on the interior and (``whole_``) on every sample the
     method estimates, ends included. The same prediction and measurement decimated alike are
     a second, labelled score (filtered), as is the lab's published model fed with the same
-    derivatives.
+    derivatives (``lab``: the torques of ``model``).
+
+    ``model`` is the robot the records come from (:class:`diffbench.signals.dfki.PendulumModel`:
+    the lab's ``model_parameters.yml`` of its design; default the packaged design C.0 one): it
+    gives l1 and g of the tie and the lab model's torques and base parameters. Records of
+    another design need that design's model; :func:`check_model_matches` refuses records that
+    evidently are not of the model's robot.
 
     Settings (the ``nested`` variant): every setting in :func:`candidate_settings` (the given
     one and ``candidates`` Sobol points of the method's tuning ranges) is scored by
@@ -205,6 +212,7 @@ class DfkiCrossValidation:
     candidates: int = 32
     tie_a4: bool = True
     min_coverage: float = 0.9
+    model: PendulumModel = field(default_factory=packaged_model)
 
 
 NESTED_VARIANT = "settings by nested leave-one-run-out CV"
@@ -268,9 +276,8 @@ def _torque_model(record, estimate, where: np.ndarray, spec: DfkiCrossValidation
     q, qd, qdd = (estimate[order][where] for order in (0, 1, 2))
     w = dfki.pendulum_regressor(q, qd, qdd)
     if spec.tie_a4:
-        lab = dfki.lab_parameters()
-        w = dfki.tie_a4_to_a6(w, lab["l1"], lab["g"])
-    return w, record.tau[where], dfki.lab_model_torques(q, qd, qdd)
+        w = spec.model.tie(w)
+    return w, record.tau[where], spec.model.torques(q, qd, qdd)
 
 
 @functools.lru_cache(maxsize=512)
@@ -311,6 +318,119 @@ def parameter_names(spec: DfkiCrossValidation) -> tuple[str, ...]:
     from diffbench.signals import dfki
 
     return dfki.TIED_PARAMETER_NAMES if spec.tie_a4 else dfki.PENDULUM_PARAMETER_NAMES
+
+
+def lab_reference(spec: DfkiCrossValidation) -> np.ndarray:
+    """The base parameters of the records' robot model (``spec.model``), in the order of
+    :func:`parameter_names` (A4 left out when tied): the "lab" column of the parameter table."""
+    from diffbench.signals import dfki
+
+    full = dict(zip(dfki.PENDULUM_PARAMETER_NAMES, spec.model.base_parameters(), strict=True))
+    return np.array([full[name] for name in parameter_names(spec)])
+
+
+MISMATCH_SHARE = 1.0
+"""A record whose torque the robot model explains worse than the torque's own mean (unexplained
+share above 1, :func:`unexplained_share`) is refused as not of that robot."""
+
+
+def unexplained_share(record, model: PendulumModel, spec: DfkiCrossValidation) -> float | None:
+    """How much of a record's measured torque the robot model leaves unexplained:
+
+    .. math:: s = \\frac{\\sum (\\tau - \\tau_{model})^2}{\\sum (\\tau - \\bar\\tau)^2}
+
+    over the actuated joints (:attr:`DfkiRecord.active_joints`) on the samples
+    ``spec.interior_margin_s`` inside each end, :math:`\\bar\\tau` each joint's mean there,
+    :math:`\\tau_{model}` the model fed with the Savitzky–Golay (``robot`` preset) q, q̇, q̈ at the
+    logged time stamps. :math:`s = 0`: the model explains the torque exactly; :math:`s > 1`: it
+    predicts worse than the constant mean. None when it cannot be computed (no actuated joint,
+    no estimated sample inside, a constant torque): the run itself then says what is wrong.
+
+    On the six packaged runs the packaged model leaves 0.08-0.32 (runs 3, 0); the lab's design
+    A.0 model (l1 = 0.3 m) leaves 2.6-21 on five of them and 0.085 on run 4 (joint 2 alone,
+    where the designs' torques differ least).
+    """
+    from diffbench import methods
+
+    method = methods.preset("savitzky_golay", "robot")
+    t = record.t
+    interior = (t >= t[0] + spec.interior_margin_s) & (t <= t[-1] - spec.interior_margin_s)
+    active = record.active_joints
+    try:
+        estimate = method(record.q, spec.nominal_dt_s, t=t)
+    except ValueError:
+        return None
+    where = interior & _estimated(estimate)
+    if not active.any() or not where.any():
+        return None
+    q, qd, qdd = (estimate[order][where] for order in (0, 1, 2))
+    measured = record.tau[where][:, active]
+    error = model.torques(q, qd, qdd)[:, active] - measured
+    spread = float(np.sum((measured - measured.mean(axis=0)) ** 2))
+    if not spread > 0:
+        return None
+    return float(np.sum(error**2)) / spread
+
+
+def _design_of(source) -> str | None:
+    """The lab design a record is of: C.0 for a packaged run, else what its path names."""
+    from diffbench.signals import dfki
+
+    if isinstance(source, numbers.Integral) and not isinstance(source, (bool, np.bool_)):
+        return PACKAGED_DESIGN
+    return dfki.design_of_path(source)
+
+
+FIX = "give the lab's model_parameters.yml of the records' design as the robot model"
+"""The fix every refusal of :func:`check_model_matches` names."""
+
+
+def check_model_matches(spec: DfkiCrossValidation) -> None:
+    """Refuse records that evidently are not of ``spec.model``'s robot (one-line ValueError
+    naming the record and the fix). The rule, in this order:
+
+    1. Design by path: the lab's repository keeps each design's records under
+       ``design_<name>/`` and its models under ``identified_parameters/design_<name>/``
+       (:func:`diffbench.signals.dfki.design_of_path`; the packaged runs and model are design
+       C.0). A record whose path names a design other than the model's is refused; with a
+       model of unknown design (a mapping, a file outside such a folder), records naming
+       different designs are refused (one model describes one robot).
+    2. Torque by data: a record whose actuated joints' measured torque the model explains
+       worse than its own mean (:func:`unexplained_share` above ``MISMATCH_SHARE`` = 1) is
+       refused, whatever its path.
+
+    A model that passes may still be imperfect (the packaged one leaves 8-32 % of the packaged
+    runs' torque unexplained); the rule only stops evident mismatches, such as the packaged
+    model on records of the lab's design A.0 named as such.
+    """
+    model = spec.model
+    named = {}
+    for source in spec.records:
+        design = _design_of(source)
+        if design is None:
+            continue
+        if model.design is not None and design != model.design:
+            raise ValueError(
+                f"{source} is a record of design {design} (its path says so) but the robot "
+                f"model is {model.label}: {FIX} (the lab's identified_parameters/design_{design}/"
+                "model_*/model_parameters.yml; CLI --robot-model FILE, API robot_model=)"
+            )
+        named.setdefault(design, source)
+    if len(named) > 1:
+        designs = " and ".join(f"{design} ({source})" for design, source in named.items())
+        raise ValueError(
+            f"the records are of designs {designs} (their paths say so) and one robot model "
+            "describes one design: identify each design's records apart, each with its model"
+        )
+    for source in spec.records:
+        share = unexplained_share(dfki_record(source), model, spec)
+        if share is not None and share > MISMATCH_SHARE:
+            raise ValueError(
+                f"{dfki_record(source).name}: the robot model ({model.label}) predicts its "
+                f"measured torque worse than the torque's mean does (unexplained share "
+                f"{share:.3g} > {MISMATCH_SHARE:g}), so it is not that robot's record: {FIX} "
+                "(CLI --robot-model FILE, API robot_model=)"
+            )
 
 
 def _identify_on(equations: list[_RunEquations], spec: DfkiCrossValidation) -> Identification:
