@@ -722,7 +722,7 @@ def packaged_model() -> PendulumModel:
     return PendulumModel(
         parameters=tuple(sorted(lab_parameters().items())),
         design=PACKAGED_DESIGN,
-        source="the packaged design C.0 model",
+        source="packaged with diffbench",
     )
 
 
