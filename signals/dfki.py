@@ -644,6 +644,15 @@ MODEL_KEYS = _PHYSICAL_NAMES
 are kept but not used by the identification)."""
 
 
+def _model_number(label: str, name: str, value: object) -> float:
+    """``value`` as a float, or a one-line ValueError naming ``label`` and ``name``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{label}: `{name}` must be a number, got {value!r}")
+    if not math.isfinite(value):
+        raise ValueError(f"{label}: `{name}` must be a finite number, got {value!r}")
+    return float(value)
+
+
 @dataclass(frozen=True)
 class PendulumModel:
     """A double pendulum of the lab's family: its physical parameters and, when known, its
@@ -684,11 +693,12 @@ class PendulumModel:
                 f"{self.source or 'the robot model'} lacks the keys {missing} (the lab's "
                 "model_parameters.yml gives them all)"
             )
-        label = self.source or "robot model"
+        label = self.source or "the robot model"
         for name, value in self.parameters:
-            check_real(f"{label}: {name}", value)
+            _model_number(label, name, value)
         for name in ("l1", "g"):
-            check_real(f"{label}: {name}", values[name], gt=0.0)
+            if not values[name] > 0:
+                raise ValueError(f"{label}: `{name}` must be > 0, got {values[name]!r}")
         identity = tuple(float(values[name]) for name in MODEL_KEYS)
         object.__setattr__(self, "identity", identity)
 
@@ -766,7 +776,7 @@ def load_pendulum_model(source=None) -> PendulumModel:
         for key, value in source.items():
             if not isinstance(key, str):
                 raise ValueError(f"the robot model's keys must be names, got {key!r}")
-            items.append((key, check_real(f"robot model: {key}", value)))
+            items.append((key, _model_number("the robot model", key, value)))
         return PendulumModel(tuple(sorted(items)), design=None, source="the given parameters")
     if not isinstance(source, (str, os.PathLike)):
         raise ValueError(
