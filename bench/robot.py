@@ -421,12 +421,15 @@ def check_model_matches(spec: DfkiCrossValidation) -> None:
         if design is None:
             continue
         if model.design is not None and design != model.design:
+            packaged = isinstance(source, numbers.Integral)
+            why = "a packaged run" if packaged else "its path says so"
             raise ValueError(
-                f"{source} is a record of design {design} (its path says so) but the robot "
-                f"model is {model.label}: {FIX} (the lab's identified_parameters/design_{design}/"
-                "model_*/model_parameters.yml; CLI --robot-model FILE, API robot_model=)"
+                f"{dfki_record(source).name} is a record of design {design} ({why}) but the "
+                f"robot model is {model.label}: {FIX} (the lab's identified_parameters/"
+                f"design_{design}/model_*/model_parameters.yml; CLI --robot-model FILE, API "
+                "robot_model=)"
             )
-        named.setdefault(design, source)
+        named.setdefault(design, dfki_record(source).name)
     if len(named) > 1:
         designs = " and ".join(f"{design} ({source})" for design, source in named.items())
         raise ValueError(
