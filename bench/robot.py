@@ -214,6 +214,14 @@ class DfkiCrossValidation:
     min_coverage: float = 0.9
     model: PendulumModel = field(default_factory=packaged_model)
 
+    def __post_init__(self) -> None:
+        """A path or mapping given as ``model`` is read once
+        (:func:`diffbench.signals.dfki.load_pendulum_model`)."""
+        if not isinstance(self.model, PendulumModel):
+            from diffbench.signals import dfki
+
+            object.__setattr__(self, "model", dfki.load_pendulum_model(self.model))
+
 
 NESTED_VARIANT = "settings by nested leave-one-run-out CV"
 """The role variant of a cell whose settings the runs other than the held-out one choose."""

@@ -72,6 +72,19 @@ generic states has rank 10, see the tests), so no smaller set of combinations de
 torques: these are the base parameters. The physical parameters are not identifiable one by one:
 :math:`m_1` and :math:`r_1` only appear in :math:`A_5`, :math:`I_1` only in :math:`A_1`.
 
+Other designs
+-------------
+The lab built several designs of this robot (``design_A.0``, ``B.0``, ``C.0``, ``C.1``, ...:
+other link lengths, masses, motors) and keeps each one's records and identified model apart
+(``data/experiment_records/design_<name>/`` and
+``data/system_identification/identified_parameters/design_<name>/model_<version>/
+model_parameters.yml``). The equations above hold for all of them; only the parameters differ.
+:func:`load_pendulum_model` reads a design's model file into a :class:`PendulumModel`, which
+gives everything the identification takes from the robot (:math:`l_1` and :math:`g` of the
+:math:`A_4`-:math:`A_6` tie, the lab model's torques and base parameters); the packaged runs
+and model are design C.0 (:func:`packaged_model`), and :func:`design_of_path` reads the design
+a path of the lab's layout names.
+
 Resampling
 ----------
 The recorded time stamps are not uniform (nominal 2 ms, with jitter and gaps up to about 8 ms),

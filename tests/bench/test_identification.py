@@ -427,8 +427,9 @@ def test_a_wrong_link_length_is_what_the_bound_catches(design_a):
     from diffbench.signals import dfki
 
     records, _, _ = design_a
-    wrong = dfki.load_pendulum_model({**syn.DESIGN_A_PARAMETERS, "l1": 0.2})
+    wrong = {**syn.DESIGN_A_PARAMETERS, "l1": 0.2}  # a mapping is read as a model
     spec = robot.DfkiCrossValidation(records=tuple(records), model=wrong)
+    assert spec.model == dfki.load_pendulum_model(wrong) and spec.model.values["l1"] == 0.2
     rows = {
         r["metric"]: r["value"]
         for r in robot.score_dfki_fold(methods.preset("savitzky_golay", "robot"), spec, 0)
