@@ -221,6 +221,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument("task", help="task name (see `diffbench list`)")
     run.add_argument(*RECORDS_FLAG, **RECORDS_OPTIONS)
+    run.add_argument(*ROBOT_MODEL_FLAG, **ROBOT_MODEL_OPTIONS)
     run.set_defaults(handler=_cmd_run)
 
     tune = commands.add_parser(
@@ -425,6 +426,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     report.add_argument("task")
     report.add_argument(*RECORDS_FLAG, **RECORDS_OPTIONS)
+    report.add_argument(*ROBOT_MODEL_FLAG, **ROBOT_MODEL_OPTIONS)
     report.set_defaults(handler=_cmd_report)
     return parser
 
@@ -660,17 +662,39 @@ RECORDS_OPTIONS = {
 }
 
 
+ROBOT_MODEL_FLAG = ("--robot-model",)
+ROBOT_MODEL_OPTIONS = {
+    "type": Path,
+    "metavar": "FILE",
+    "help": "with --records only: the robot that recorded them, the DFKI lab's "
+    "model_parameters.yml of their design (identified_parameters/design_<name>/...; default "
+    "the packaged design C.0 model); records that evidently are not of it are refused",
+}
+
+
 def _task_of(args):
-    """The task ``args.task``, on ``args.records`` when given (identify-dfki only)."""
+    """The task ``args.task``, on ``args.records`` (identify-dfki only) of the robot
+    ``args.robot_model`` when given."""
     records = getattr(args, "records", None)
+    model = getattr(args, "robot_model", None)
     if not records:
+        if model is not None:
+            raise UsageError(
+                "--robot-model is valid with --records only (it describes the robot that "
+                "recorded them): add --records CSV... or drop --robot-model"
+            )
         return _task(args.task)
     if args.task != "identify-dfki":
         raise UsageError(f"--records is for identify-dfki only, not {args.task!r}")
     if getattr(args, "jobs", 1) > 1 and not executor.forks():
         args.jobs = 1  # workers started afresh would not know a task registered here
+    if model is not None:
+        from diffbench.signals.dfki import load_pendulum_model
+
+        with user_input("--robot-model: "):
+            model = load_pendulum_model(model)
     with user_input("--records: "):
-        return dfki_task(records)
+        return dfki_task(records, robot_model=model)
 
 
 def _cmd_run(args) -> None:

@@ -7,8 +7,9 @@ from __future__ import annotations
 import functools
 import hashlib
 import math
+import numbers
 from collections import OrderedDict
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -21,7 +22,7 @@ from diffbench.bench.identification import (
 )
 from diffbench.methods import Method
 from diffbench.signals import robot2r
-from diffbench.signals.dfki import DFKI_RUNS
+from diffbench.signals.dfki import DFKI_RUNS, PACKAGED_DESIGN, PendulumModel, packaged_model
 
 EDGE_SAMPLES = 4  # decimated samples dropped at each end (start-up of the decimation filter)
 PASSBAND_PER_BANDWIDTH = 5.0  # F_p = 5 x the position-loop bandwidth (the paper's rule)
@@ -174,14 +175,20 @@ class DfkiCrossValidation:
     time stamps of every run (``method(q, nominal_dt_s, t=t)``: natively or through its
     resampling path), on the samples ``interior_margin_s`` inside each end. The base parameters
     are identified by IDIM-LS (both sides of W X = Y decimated alike, F_p = ``passband_hz``:
-    Gautier's parallel filtering) on every run but k, with A4 tied to A6 by the lab's l1 and g
-    (``tie_a4``); the identified model then predicts the torque of run k at its logged time
+    Gautier's parallel filtering) on every run but k, with A4 tied to A6 by the robot model's
+    l1 and g (``tie_a4``); the identified model then predicts the torque of run k at its logged time
     stamps, and is scored by the RMSE against the **measured torque as logged** (raw), per
     actuated joint (a joint whose commanded torque is identically zero is passive: its measured
     torque is only the driver's noise), on the interior and (``whole_``) on every sample the
     method estimates, ends included. The same prediction and measurement decimated alike are
     a second, labelled score (filtered), as is the lab's published model fed with the same
-    derivatives.
+    derivatives (``lab``: the torques of ``model``).
+
+    ``model`` is the robot the records come from (:class:`diffbench.signals.dfki.PendulumModel`:
+    the lab's ``model_parameters.yml`` of its design; default the packaged design C.0 one): it
+    gives l1 and g of the tie and the lab model's torques and base parameters. Records of
+    another design need that design's model; :func:`check_model_matches` refuses records that
+    evidently are not of the model's robot.
 
     Settings (the ``nested`` variant): every setting in :func:`candidate_settings` (the given
     one and ``candidates`` Sobol points of the method's tuning ranges) is scored by
@@ -205,6 +212,15 @@ class DfkiCrossValidation:
     candidates: int = 32
     tie_a4: bool = True
     min_coverage: float = 0.9
+    model: PendulumModel = field(default_factory=packaged_model)
+
+    def __post_init__(self) -> None:
+        """A path or mapping given as ``model`` is read once
+        (:func:`diffbench.signals.dfki.load_pendulum_model`)."""
+        if not isinstance(self.model, PendulumModel):
+            from diffbench.signals import dfki
+
+            object.__setattr__(self, "model", dfki.load_pendulum_model(self.model))
 
 
 NESTED_VARIANT = "settings by nested leave-one-run-out CV"
@@ -268,9 +284,8 @@ def _torque_model(record, estimate, where: np.ndarray, spec: DfkiCrossValidation
     q, qd, qdd = (estimate[order][where] for order in (0, 1, 2))
     w = dfki.pendulum_regressor(q, qd, qdd)
     if spec.tie_a4:
-        lab = dfki.lab_parameters()
-        w = dfki.tie_a4_to_a6(w, lab["l1"], lab["g"])
-    return w, record.tau[where], dfki.lab_model_torques(q, qd, qdd)
+        w = spec.model.tie(w)
+    return w, record.tau[where], spec.model.torques(q, qd, qdd)
 
 
 @functools.lru_cache(maxsize=512)
@@ -311,6 +326,134 @@ def parameter_names(spec: DfkiCrossValidation) -> tuple[str, ...]:
     from diffbench.signals import dfki
 
     return dfki.TIED_PARAMETER_NAMES if spec.tie_a4 else dfki.PENDULUM_PARAMETER_NAMES
+
+
+def lab_reference(spec: DfkiCrossValidation) -> np.ndarray:
+    """The base parameters of the records' robot model (``spec.model``), in the order of
+    :func:`parameter_names` (A4 left out when tied): the "lab" column of the parameter table."""
+    from diffbench.signals import dfki
+
+    full = dict(zip(dfki.PENDULUM_PARAMETER_NAMES, spec.model.base_parameters(), strict=True))
+    return np.array([full[name] for name in parameter_names(spec)])
+
+
+MISMATCH_RATIO = 4.0
+"""A record on which the robot model's torque RMSE exceeds 4 times that of the same equations
+fitted to the record (:func:`model_error_ratio`) is refused as not of that robot."""
+
+
+def model_error_ratio(record, model: PendulumModel, spec: DfkiCrossValidation) -> float | None:
+    """How much worse the robot model predicts a record's measured torque than its own
+    equations can: :math:`\\rho = \\mathrm{RMSE}(\\tau_{model} - \\tau) /
+    \\min_X \\mathrm{RMSE}(D X - \\tau)`.
+
+    Both over the actuated joints (:attr:`DfkiRecord.active_joints`) on the samples
+    ``spec.interior_margin_s`` inside each end, with q, q̇, q̈ from Savitzky–Golay (``robot``
+    preset) at the logged time stamps; :math:`\\tau_{model}` the model's torques, :math:`D` the
+    10-column base-parameter regressor (:func:`diffbench.signals.dfki.pendulum_regressor`, its
+    rows of the actuated joints; least squares, minimum norm where a passive joint leaves
+    columns empty). The fit is the least error any parameters of this robot family reach on
+    the record (the measurement noise and what the equations do not model), so
+    :math:`\\rho \\ge 1` and :math:`\\rho` near 1 means the model's parameters fit the record.
+    None when it cannot be computed (no actuated joint, no estimated sample inside, the method
+    refuses the record): the run itself then says what is wrong.
+
+    Measured (bench/robot.py tests): the packaged model on the six packaged runs, 1.16-2.66;
+    the lab's design A.0 model (l1 = 0.3 m) on them, 5.1-16.8 on five runs and 1.36 on run 4
+    (joint 2 alone, where the designs differ least); the lab's design C.1 model_3.0 on them,
+    2.5-6.9; the packaged model on a simulated design-A.0 robot with 0.02 N·m torque noise,
+    about 33.
+    """
+    from diffbench import methods
+    from diffbench.signals import dfki
+
+    method = methods.preset("savitzky_golay", "robot")
+    t = record.t
+    interior = (t >= t[0] + spec.interior_margin_s) & (t <= t[-1] - spec.interior_margin_s)
+    active = record.active_joints
+    try:
+        estimate = method(record.q, spec.nominal_dt_s, t=t)
+    except ValueError:
+        return None
+    where = interior & _estimated(estimate)
+    if not active.any() or not where.any():
+        return None
+    q, qd, qdd = (estimate[order][where] for order in (0, 1, 2))
+    measured = record.tau[where][:, active]
+    model_rmse = math.sqrt(np.mean((model.torques(q, qd, qdd)[:, active] - measured) ** 2))
+    w = dfki.pendulum_regressor(q, qd, qdd)[:, active, :].reshape(-1, 10)
+    fitted, *_ = np.linalg.lstsq(w, measured.reshape(-1), rcond=None)
+    fit_rmse = math.sqrt(np.mean((w @ fitted - measured.reshape(-1)) ** 2))
+    if fit_rmse == 0:
+        return 1.0 if model_rmse == 0 else math.inf
+    return model_rmse / fit_rmse
+
+
+def _design_of(source) -> str | None:
+    """The lab design a record is of: C.0 for a packaged run, else what its path names."""
+    from diffbench.signals import dfki
+
+    if isinstance(source, numbers.Integral) and not isinstance(source, (bool, np.bool_)):
+        return PACKAGED_DESIGN
+    return dfki.design_of_path(source)
+
+
+FIX = "give the lab's model_parameters.yml of the records' design as the robot model"
+"""The fix every refusal of :func:`check_model_matches` names."""
+
+
+def check_model_matches(spec: DfkiCrossValidation) -> None:
+    """Refuse records that evidently are not of ``spec.model``'s robot (one-line ValueError
+    naming the record and the fix). The rule, in this order:
+
+    1. Design by path: the lab's repository keeps each design's records under
+       ``design_<name>/`` and its models under ``identified_parameters/design_<name>/``
+       (:func:`diffbench.signals.dfki.design_of_path`; the packaged runs and model are design
+       C.0). A record whose path names a design other than the model's is refused; with a
+       model of unknown design (a mapping, a file outside such a folder), records naming
+       different designs are refused (one model describes one robot).
+    2. Torque by data: a record whose measured torque the model predicts more than
+       ``MISMATCH_RATIO`` = 4 times worse (RMSE) than the same equations fitted to the record
+       (:func:`model_error_ratio`) is refused, whatever its path. The right model reaches
+       1.16-2.66 on the packaged runs, so 4 leaves a margin of 1.5 over the worst legitimate
+       record seen; the lab's design A.0 model exceeds it on five of the six.
+
+    A model that passes may still be imperfect: the rule stops evident mismatches only (a
+    design's model on a record of another design with little excitation can pass, which is
+    why the path's design is checked first).
+    """
+    model = spec.model
+    named = {}
+    for source in spec.records:
+        design = _design_of(source)
+        if design is None:
+            continue
+        if model.design is not None and design != model.design:
+            packaged = isinstance(source, numbers.Integral)
+            why = "a packaged run" if packaged else "its path says so"
+            raise ValueError(
+                f"{dfki_record(source).name} is a record of design {design} ({why}) but the "
+                f"robot model is {model.label}: {FIX} (the lab's identified_parameters/"
+                f"design_{design}/model_*/model_parameters.yml; CLI --robot-model FILE, API "
+                "robot_model=)"
+            )
+        named.setdefault(design, dfki_record(source).name)
+    if len(named) > 1:
+        designs = " and ".join(f"{design} ({source})" for design, source in named.items())
+        raise ValueError(
+            f"the records are of designs {designs} (their paths say so) and one robot model "
+            "describes one design: identify each design's records apart, each with its model"
+        )
+    for source in spec.records:
+        record = dfki_record(source)
+        ratio = model_error_ratio(record, model, spec)
+        if ratio is not None and ratio > MISMATCH_RATIO:
+            raise ValueError(
+                f"{record.name}: the robot model ({model.label}) predicts its measured torque "
+                f"{ratio:.3g} times worse (RMSE) than the same equations fitted to it (more than "
+                f"{MISMATCH_RATIO:g}: not that robot's record): {FIX} (CLI --robot-model FILE, "
+                "API robot_model=)"
+            )
 
 
 def _identify_on(equations: list[_RunEquations], spec: DfkiCrossValidation) -> Identification:

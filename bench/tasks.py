@@ -259,19 +259,24 @@ class DfkiTask(Task):
     """Real recordings of the DFKI double pendulum: leave-one-run-out identification (a cell's
     seed is the held-out run), scored by the measured torque of the held-out run at its logged
     time stamps; each method at its preset and at the settings nested cross-validation
-    chooses (:class:`diffbench.bench.robot.DfkiCrossValidation`)."""
+    chooses (:class:`diffbench.bench.robot.DfkiCrossValidation`). ``robot_model``: the
+    records' robot (:class:`diffbench.signals.dfki.PendulumModel`), None for the packaged
+    design C.0 one."""
 
     records: tuple | None = None
     listed: bool = True
     kind: ClassVar[str] = "robot (real)"
+    robot_model: object = None
 
-    @property
+    @functools.cached_property
     def spec(self):
         from diffbench.bench.robot import DfkiCrossValidation
+        from diffbench.signals.dfki import load_pendulum_model
 
+        model = load_pendulum_model(self.robot_model)
         if self.records is None:
-            return DfkiCrossValidation()
-        return DfkiCrossValidation(records=tuple(self.records))
+            return DfkiCrossValidation(model=model)
+        return DfkiCrossValidation(records=tuple(self.records), model=model)
 
     @property
     def default_seeds(self) -> int:  # type: ignore[override]
@@ -283,9 +288,15 @@ class DfkiTask(Task):
 
     @functools.cached_property
     def name(self) -> str:
-        """``identify-dfki`` on the packaged runs; with other records, that name and a digest
-        of their contents (the store never mixes cells of different data under one name)."""
-        if self.records is None:
+        """``identify-dfki`` on the packaged runs with the packaged model; with other records or
+        another model, that name and a digest of the records' contents and of the model's
+        parameters when they are not the packaged model's (the store never mixes cells of
+        different data or models under one name; records with the packaged model keep the
+        digest they always had)."""
+        from diffbench.signals.dfki import packaged_model
+
+        model = self.spec.model
+        if self.records is None and model == packaged_model():
             return self.spec.name
         from diffbench.bench.robot import dfki_record
 
@@ -294,6 +305,9 @@ class DfkiTask(Task):
             record = dfki_record(source)
             for array in (record.t, record.q, record.tau, record.tau_commanded):
                 digest.update(np.ascontiguousarray(array).tobytes())
+        if model != packaged_model():
+            digest.update(b"robot model")
+            digest.update(np.array(model.identity, dtype=np.float64).tobytes())
         return f"{self.spec.name}-{digest.hexdigest()[:10]}"
 
     @property
@@ -442,10 +456,19 @@ class LoopTask(Task):
         return reports.loop_report(self.name, self.description, cells, directory)
 
 
-def dfki_task(records) -> Task:
+def dfki_task(records, robot_model=None) -> Task:
     """The DFKI identification task on ``records`` (packaged run numbers or paths of CSV files
-    in the lab's layout, at least three), registered under its name (:class:`DfkiTask`)."""
-    from diffbench.bench.robot import dfki_record
+    in the lab's layout, at least three), registered under its name (:class:`DfkiTask`).
+
+    ``robot_model`` is the robot that recorded them: None for the packaged design C.0 model,
+    else the lab's ``model_parameters.yml`` of their design (a path), a mapping of its
+    parameters or a :class:`diffbench.signals.dfki.PendulumModel`
+    (:func:`diffbench.signals.dfki.load_pendulum_model`). Records that evidently are not of
+    that robot are refused (:func:`diffbench.bench.robot.check_model_matches`: a path naming
+    another design, or a torque the model explains worse than its mean).
+    """
+    from diffbench.bench.robot import check_model_matches, dfki_record
+    from diffbench.signals.dfki import load_pendulum_model
 
     records = tuple(records)
     if len(records) < 3:
@@ -454,7 +477,8 @@ def dfki_task(records) -> Task:
         )
     for source in records:
         dfki_record(source)  # a bad file is refused here, naming it
-    task = DfkiTask(records=records)
+    task = DfkiTask(records=records, robot_model=load_pendulum_model(robot_model))
+    check_model_matches(task.spec)
     _register_builtins()
     return _TASKS.get(task.name) or register_task(task)
 

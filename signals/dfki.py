@@ -72,6 +72,19 @@ generic states has rank 10, see the tests), so no smaller set of combinations de
 torques: these are the base parameters. The physical parameters are not identifiable one by one:
 :math:`m_1` and :math:`r_1` only appear in :math:`A_5`, :math:`I_1` only in :math:`A_1`.
 
+Other designs
+-------------
+The lab built several designs of this robot (``design_A.0``, ``B.0``, ``C.0``, ``C.1``, ...:
+other link lengths, masses, motors) and keeps each one's records and identified model apart
+(``data/experiment_records/design_<name>/`` and
+``data/system_identification/identified_parameters/design_<name>/model_<version>/
+model_parameters.yml``). The equations above hold for all of them; only the parameters differ.
+:func:`load_pendulum_model` reads a design's model file into a :class:`PendulumModel`, which
+gives everything the identification takes from the robot (:math:`l_1` and :math:`g` of the
+:math:`A_4`-:math:`A_6` tie, the lab model's torques and base parameters); the packaged runs
+and model are design C.0 (:func:`packaged_model`), and :func:`design_of_path` reads the design
+a path of the lab's layout names.
+
 Resampling
 ----------
 The recorded time stamps are not uniform (nominal 2 ms, with jitter and gaps up to about 8 ms),
@@ -93,13 +106,17 @@ References
 
 from __future__ import annotations
 
+import functools
 import gzip
 import io
 import math
 import numbers
+import os
+import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib.resources import files
+from pathlib import Path, PurePath
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -477,7 +494,6 @@ def read_dfki_record(source) -> DfkiRecord:
         inf, time stamps that decrease or repeat with other values, fewer than
         ``MIN_RECORD_SAMPLES`` distinct time stamps.
     """
-    from pathlib import Path
 
     if isinstance(source, numbers.Integral) and not isinstance(source, (bool, np.bool_)):
         run = _check_run(source)
@@ -568,6 +584,24 @@ def tie_a4_to_a6(regressor: np.ndarray, link1_length_m: float, gravity_m_s2: flo
     return np.delete(tied, a4, axis=-1)
 
 
+def _parse_model_text(text: str, label: str) -> dict[str, float]:
+    """The ``key: number`` lines of a model file (``#`` starts a comment); one-line errors
+    naming ``label``."""
+    parameters: dict[str, float] = {}
+    for number, line in enumerate(text.splitlines(), start=1):
+        content = line.split("#", 1)[0].strip()
+        if not content:
+            continue
+        key, sep, value = content.partition(":")
+        try:
+            if not sep or not key.strip():
+                raise ValueError
+            parameters[key.strip()] = float(value)
+        except ValueError:
+            raise ValueError(f"{label} line {number} is not `key: number`: {line!r}") from None
+    return parameters
+
+
 def lab_parameters() -> dict[str, float]:
     """The lab's identified physical parameters (``model_parameters.yml``) as floats.
 
@@ -587,21 +621,194 @@ def lab_parameters() -> dict[str, float]:
     (6.0, 9.81)
     """
     text = _data_file("model_parameters.yml").read_text(encoding="utf-8")
-    parameters: dict[str, float] = {}
-    for number, line in enumerate(text.splitlines(), start=1):
-        content = line.split("#", 1)[0].strip()
-        if not content:
-            continue
-        key, sep, value = content.partition(":")
-        try:
-            if not sep or not key.strip():
-                raise ValueError
-            parameters[key.strip()] = float(value)
-        except ValueError:
+    return _parse_model_text(text, "model_parameters.yml")
+
+
+PACKAGED_DESIGN = "C.0"
+"""The lab's hardware design of the packaged runs and model (``design_C.0`` in its repository)."""
+
+_DESIGN_FOLDER = re.compile(r"design_(.+)")
+
+
+def design_of_path(path: str | os.PathLike) -> str | None:
+    """The lab design a path names, or None: the last folder called ``design_<name>``.
+
+    The lab's ``double_pendulum`` repository keeps every design's files apart:
+    ``data/experiment_records/design_A.0/20220815/sys_id/trajectory_03.csv`` (a record) and
+    ``data/system_identification/identified_parameters/design_A.0/model_2.0/model_parameters.yml``
+    (its identified model) both name design ``A.0``.
+
+    Examples
+    --------
+    >>> design_of_path("data/experiment_records/design_A.0/20220815/sys_id/trajectory_03.csv")
+    'A.0'
+    >>> design_of_path("measured.csv") is None
+    True
+    """
+    for part in reversed(PurePath(path).parts[:-1]):
+        found = _DESIGN_FOLDER.fullmatch(part)
+        if found:
+            return found.group(1)
+    return None
+
+
+MODEL_KEYS = _PHYSICAL_NAMES
+"""The keys a robot model must give (others, such as ``l2`` or the torque limits ``tl1, tl2``,
+are kept but not used by the identification)."""
+
+
+def _model_number(label: str, name: str, value: object) -> float:
+    """``value`` as a float, or a one-line ValueError naming ``label`` and ``name``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{label}: `{name}` must be a number, got {value!r}")
+    if not math.isfinite(value):
+        raise ValueError(f"{label}: `{name}` must be a finite number, got {value!r}")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class PendulumModel:
+    """A double pendulum of the lab's family: its physical parameters and, when known, its
+    hardware design. Made by :func:`load_pendulum_model`.
+
+    Everything the identification takes from the robot comes from here: the link length
+    :math:`l_1` and gravity :math:`g` that tie :math:`A_4` to :math:`A_6`
+    (:meth:`tie`), and the lab's model :math:`\\tau = M\\ddot q + C\\dot q - G + F` with
+    its masses, lengths, inertias, gear ratio, rotor inertia and friction (:meth:`torques`,
+    :meth:`base_parameters`).
+
+    Parameters
+    ----------
+    parameters : tuple of (str, float)
+        Every ``key: number`` of the model, sorted by key; at least :data:`MODEL_KEYS`.
+    design : str or None
+        The design the model belongs to (``"C.0"`` for the packaged one, else the
+        ``design_<name>`` folder of its file's path, :func:`design_of_path`); None if unknown.
+    source : str
+        Where it came from, for messages.
+
+    Notes
+    -----
+    Two models are equal (and hash alike) when their :data:`MODEL_KEYS` values are: the
+    design and source are labels, and keys the identification does not use do not count.
+    """
+
+    parameters: tuple[tuple[str, float], ...] = field(compare=False)
+    design: str | None = field(default=None, compare=False)
+    source: str = field(default="", compare=False)
+    identity: tuple[float, ...] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        values = dict(self.parameters)
+        missing = [name for name in MODEL_KEYS if name not in values]
+        if missing:
             raise ValueError(
-                f"model_parameters.yml line {number} is not `key: number`: {line!r}"
-            ) from None
-    return parameters
+                f"{self.source or 'the robot model'} lacks the keys {missing} (the lab's "
+                "model_parameters.yml gives them all)"
+            )
+        label = self.source or "the robot model"
+        for name, value in self.parameters:
+            _model_number(label, name, value)
+        for name in ("l1", "g"):
+            if not values[name] > 0:
+                raise ValueError(f"{label}: `{name}` must be > 0, got {values[name]!r}")
+        identity = tuple(float(values[name]) for name in MODEL_KEYS)
+        object.__setattr__(self, "identity", identity)
+
+    @property
+    def values(self) -> dict[str, float]:
+        """The parameters as a fresh dict."""
+        return dict(self.parameters)
+
+    @property
+    def label(self) -> str:
+        """``design A.0 (<source>)``, or the source alone when the design is unknown."""
+        return f"design {self.design} ({self.source})" if self.design else self.source
+
+    def base_parameters(self) -> np.ndarray:
+        """:func:`base_parameters` of this model, shape (10,)."""
+        return base_parameters(self.values)
+
+    def tie(self, regressor: np.ndarray) -> np.ndarray:
+        """:func:`tie_a4_to_a6` with this model's :math:`l_1` and :math:`g`."""
+        values = self.values
+        return tie_a4_to_a6(regressor, values["l1"], values["g"])
+
+    def torques(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        """:func:`lab_model_torques` with this model's parameters, shape (n, 2)."""
+        return lab_model_torques(q, qd, qdd, parameters=self.values)
+
+
+@functools.cache
+def packaged_model() -> PendulumModel:
+    """The packaged design C.0 model (:func:`lab_parameters`), made once per process."""
+    return PendulumModel(
+        parameters=tuple(sorted(lab_parameters().items())),
+        design=PACKAGED_DESIGN,
+        source="packaged with diffbench",
+    )
+
+
+def load_pendulum_model(source=None) -> PendulumModel:
+    """A robot model from the lab's ``model_parameters.yml`` of a design, or a mapping.
+
+    Parameters
+    ----------
+    source : None or str or os.PathLike or mapping or PendulumModel
+        None: the packaged design C.0 model (:func:`packaged_model`). A path: a file of
+        ``key: number`` lines as the lab writes them (``identified_parameters/design_<name>/
+        model_<version>/model_parameters.yml``); its design is the ``design_<name>`` folder of
+        the path, if any (:func:`design_of_path`). A mapping of names to numbers: design
+        unknown. A :class:`PendulumModel` is returned as it is.
+
+    Returns
+    -------
+    PendulumModel
+
+    Raises
+    ------
+    ValueError
+        One line naming the file or key: a missing file, a line that is not ``key: number``, a
+        missing key of :data:`MODEL_KEYS`, a value that is not finite, :math:`l_1 \\le 0` or
+        :math:`g \\le 0`.
+
+    Examples
+    --------
+    >>> load_pendulum_model().values["l1"], load_pendulum_model().design
+    (0.2, 'C.0')
+    >>> model = load_pendulum_model({**lab_parameters(), "l1": 0.3, "r1": 0.3})
+    >>> model.design is None, model == load_pendulum_model()
+    (True, False)
+    """
+    if source is None:
+        return packaged_model()
+    if isinstance(source, PendulumModel):
+        return source
+    if isinstance(source, Mapping):
+        items = []
+        for key, value in source.items():
+            if not isinstance(key, str):
+                raise ValueError(f"the robot model's keys must be names, got {key!r}")
+            items.append((key, _model_number("the robot model", key, value)))
+        return PendulumModel(tuple(sorted(items)), design=None, source="the given parameters")
+    if not isinstance(source, (str, os.PathLike)):
+        raise ValueError(
+            "the robot model must be None (the packaged design C.0 model), the path of the "
+            f"lab's model_parameters.yml or a mapping of its parameters, got {source!r}"
+        )
+    path = Path(source)
+    if not path.is_file():
+        raise ValueError(
+            f"{path}: no such file (give the lab's model_parameters.yml of the records' design)"
+        )
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a text file of `key: number` lines") from None
+    parameters = _parse_model_text(text, str(path))
+    return PendulumModel(
+        parameters=tuple(sorted(parameters.items())), design=design_of_path(path), source=str(path)
+    )
 
 
 def base_parameters(parameters: Mapping[str, float]) -> np.ndarray:
@@ -752,17 +959,26 @@ def pendulum_regressor(
     return D
 
 
-def lab_model_torques(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+def lab_model_torques(
+    q: np.ndarray,
+    qd: np.ndarray,
+    qdd: np.ndarray,
+    parameters: Mapping[str, float] | None = None,
+) -> np.ndarray:
     """Joint torques of the lab's model, :math:`\\tau = M\\ddot q + C\\dot q - G + F`.
 
     Computed directly from the lab's :math:`M, C, G, F` (module docstring) with
-    :func:`lab_parameters`, independently of :func:`pendulum_regressor`.
+    ``parameters`` (default :func:`lab_parameters`, the packaged design C.0 model),
+    independently of :func:`pendulum_regressor`.
 
     Parameters
     ----------
     q, qd, qdd : array_like, shape (n, 2)
         Joint positions [rad], velocities [rad/s] and accelerations [rad/s²], finite, with the
         same number ``n >= 1`` of samples.
+    parameters : mapping of str to float, optional
+        Physical parameters with at least the keys of :func:`base_parameters` (as
+        :func:`lab_parameters` or :attr:`PendulumModel.values` give them).
 
     Returns
     -------
@@ -772,7 +988,8 @@ def lab_model_torques(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndar
     Raises
     ------
     ValueError
-        If an array is not of shape (n, 2), not finite or of another length than ``q``.
+        If an array is not of shape (n, 2), not finite or of another length than ``q``, or if
+        ``parameters`` lacks a key or holds a value that is not finite.
 
     Examples
     --------
@@ -782,7 +999,11 @@ def lab_model_torques(q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndar
     [[0.0, 0.0]]
     """
     q, qd, qdd = _check_states(q, qd, qdd)
-    p = lab_parameters()
+    if parameters is None:
+        p = lab_parameters()
+    else:
+        base_parameters(parameters)  # every key present and finite, or a one-line ValueError
+        p = {name: float(parameters[name]) for name in _PHYSICAL_NAMES}
     m1, m2, l1, r1, r2 = p["m1"], p["m2"], p["l1"], p["r1"], p["r2"]
     I1, I2, Ir, gr, g = p["I1"], p["I2"], p["Ir"], p["gr"], p["g"]
     c2, s2 = np.cos(q[:, 1]), np.sin(q[:, 1])

@@ -1,6 +1,11 @@
 """IDIM-LS against known parameters, and its bad-input table."""
 
+import dataclasses
 import math
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,8 +16,10 @@ from diffbench.bench.cli import main
 from diffbench.bench.identification import decimation_factor, idim_ls, parallel_decimation
 from diffbench.bench.runner import compute_cell, preset_entry
 from diffbench.signals import robot2r
+from tests.signals import dfki_synthetic as syn
 
 NAMES = robot2r.PARAMETER_NAMES
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
@@ -329,3 +336,224 @@ def test_run_identify_dfki_on_records_a_user_points_at(tmp_path, capsys):
     assert "none.csv: no such file" in capsys.readouterr().err
     assert main([*base, "--records", paths[0], paths[1]]) == 2
     assert "give at least 3 records" in capsys.readouterr().err
+
+
+# --- records of another design: identified with that design's model, or refused -------------
+@pytest.fixture(scope="module")
+def design_a(tmp_path_factory):
+    """Three 8 s records of the simulated design-A.0-like robot and its model file, where the
+    lab's repository keeps them (tests/signals/dfki_synthetic.py)."""
+    return syn.lab_tree(tmp_path_factory.mktemp("lab"))
+
+
+def _decimated(values, spec):
+    factor = decimation_factor(1 / spec.nominal_dt_s, spec.passband_hz)
+    return parallel_decimation(values, factor)[robot.EDGE_SAMPLES : -robot.EDGE_SAMPLES]
+
+
+def test_dfki_records_of_design_a_are_identified_with_their_model(design_a):
+    """Exact truth: the fold's X̂ is the least-squares solution of the equations built with the
+    model's l1 = 0.3 m: X̂ − X = W⁺ r_d + W⁺ r_n, with r_d = (W_exact − W) X the
+    differentiator's error and r_n the torque noise, decimated alike, both known here. The
+    tolerance per parameter is |W⁺ r_d|_i + 4 σ_n ‖(W⁺)_i‖ (σ_n the decimated noise's standard
+    deviation: 4 of the noise term's own standard deviations), below 1 % of the five inertial
+    and gravity parameters and 10 % of the friction ones (measured: at most 0.1 % and 1.5 %).
+    The "lab" column is this model's torque error, computed here from the robot's own inverse
+    dynamics."""
+    from diffbench.bench.tasks import dfki_task
+    from diffbench.signals import dfki
+
+    records, model_path, motions = design_a
+    spec = dfki_task(records, robot_model=model_path).spec
+    assert spec.model.design == "A.0" and spec.model.values["l1"] == 0.3
+    method = methods.preset("savitzky_golay", "robot")
+    rows = {r["metric"]: r["value"] for r in robot.score_dfki_fold(method, spec, 0)}
+    X = syn.true_base_parameters()
+    truth = np.delete(X, dfki.PENDULUM_PARAMETER_NAMES.index("A4_m2_l1_r2"))
+    estimate = np.array([rows[f"estimate.{name}"] for name in dfki.TIED_PARAMETER_NAMES])
+    W, r_d, r_n = [], [], []
+    for k in (1, 2):  # the training records of fold 0
+        record, exact = robot.dfki_record(records[k]), motions[k]
+        np.testing.assert_array_equal(record.q, exact.q)  # 17 digits in the file: exact
+        t = record.t
+        inside = (t >= t[0] + spec.interior_margin_s) & (t <= t[-1] - spec.interior_margin_s)
+        found = method(record.q, spec.nominal_dt_s, t=t)
+        assert all(found.valid[order][inside].all() for order in (0, 1, 2))
+        states = [found[order][inside] for order in (0, 1, 2)]
+        w = dfki.tie_a4_to_a6(dfki.pendulum_regressor(*states), 0.3, 9.81)
+        w_exact = dfki.tie_a4_to_a6(
+            dfki.pendulum_regressor(exact.q[inside], exact.qd[inside], exact.qdd[inside]),
+            0.3,
+            9.81,
+        )
+        noise = record.tau[inside] - w_exact @ truth
+        assert abs(np.std(noise) / syn.TORQUE_NOISE_NM - 1) < 0.05
+        W.append(_decimated(w, spec))
+        r_d.append(_decimated(w_exact - w, spec) @ truth)
+        r_n.append(_decimated(noise, spec))
+    W = np.concatenate(W).reshape(-1, truth.size)
+    r_d, r_n = (np.concatenate(part).reshape(-1) for part in (r_d, r_n))
+    pseudo_inverse = np.linalg.pinv(W)
+    singular = np.linalg.svd(W, compute_uv=False)
+    # QR least squares is backward stable: rounding moves X̂ by at most ~eps·cond(W)·‖X‖
+    rounding = 100 * np.finfo(float).eps * (singular[0] / singular[-1]) * np.linalg.norm(truth)
+    np.testing.assert_allclose(
+        estimate - truth, pseudo_inverse @ (r_d + r_n), rtol=0, atol=rounding
+    )
+    tolerance = np.abs(pseudo_inverse @ r_d) + 4 * np.std(r_n) * np.linalg.norm(
+        pseudo_inverse, axis=1
+    )
+    assert np.all(np.abs(estimate - truth) <= tolerance + rounding)
+    relative = tolerance / np.abs(truth)
+    assert np.all(relative[:5] < 0.01) and np.all(relative[5:] < 0.1), relative
+    # the lab column: the model's torques (the robot's inverse dynamics), not the packaged ones
+    record = robot.dfki_record(records[0])
+    t = record.t
+    inside = (t >= t[0] + spec.interior_margin_s) & (t <= t[-1] - spec.interior_margin_s)
+    found = method(record.q, spec.nominal_dt_s, t=t)
+    states = [found[order][inside] for order in (0, 1, 2)]
+    for joint in (0, 1):
+        error = syn.inverse_dynamics(*states)[:, joint] - record.tau[inside, joint]
+        packaged = dfki.lab_model_torques(*states)[:, joint] - record.tau[inside, joint]
+        lab = rows[f"lab_torque_rmse.joint{joint + 1}"]
+        # the two torques agree to 1e-12 N·m (tests/signals/test_dfki.py), so do their RMSEs
+        assert abs(lab - np.sqrt(np.mean(error**2))) < 1e-11
+        assert lab < 1.5 * syn.TORQUE_NOISE_NM < 0.1 * np.sqrt(np.mean(packaged**2))
+
+
+def test_a_wrong_link_length_is_what_the_bound_catches(design_a):
+    """The same records identified with the robot's parameters but the packaged l1 = 0.2 m
+    (the A4–A6 tie of design C.0): the parameters come out far outside the bound above."""
+    from diffbench.signals import dfki
+
+    records, _, _ = design_a
+    wrong = {**syn.DESIGN_A_PARAMETERS, "l1": 0.2}  # a mapping is read as a model
+    spec = robot.DfkiCrossValidation(records=tuple(records), model=wrong)
+    assert spec.model == dfki.load_pendulum_model(wrong) and spec.model.values["l1"] == 0.2
+    rows = {
+        r["metric"]: r["value"]
+        for r in robot.score_dfki_fold(methods.preset("savitzky_golay", "robot"), spec, 0)
+    }
+    X = syn.true_base_parameters()
+    truth = np.delete(X, dfki.PENDULUM_PARAMETER_NAMES.index("A4_m2_l1_r2"))
+    estimate = np.array([rows[f"estimate.{name}"] for name in dfki.TIED_PARAMETER_NAMES])
+    assert np.max(np.abs(estimate / truth - 1)) > 0.2
+    assert rows["torque_rmse.joint1"] > 3 * syn.TORQUE_NOISE_NM
+
+
+def test_dfki_records_of_another_design_are_refused_without_their_model(design_a, tmp_path):
+    """The packaged design C.0 model is never silently used for other records: a record under
+    design_A.0/ is refused by its path; the same file elsewhere by its torque (the C.0 model
+    predicts it about 33 times worse than the fitted equations, the limit is 4); with the
+    design's model file the same records run. On the real packaged runs a design-A.0 model is
+    refused likewise (runs named C.0; as a mapping of unknown design, by the torque of run 0,
+    ratio 16.8)."""
+    from diffbench.bench.tasks import dfki_task
+
+    records, model_path, _ = design_a
+    with pytest.raises(
+        ValueError,
+        match=r"trajectory_00\.csv is a record of design A\.0 \(its "
+        r"path says so\) but the robot model is design C\.0 \(packaged with "
+        r"diffbench\): give .*design_A\.0/model_\*/model_parameters\.yml; CLI "
+        r"--robot-model FILE",
+    ):
+        dfki_task(records)
+    plain = []
+    for path in records:
+        plain.append(tmp_path / path.name)
+        plain[-1].write_bytes(path.read_bytes())
+    with pytest.raises(
+        ValueError,
+        match=r"trajectory_00\.csv: the robot model \(design C\.0 "
+        r"\(packaged with diffbench\)\) predicts its measured torque 3\d\.\d "
+        r"times worse .* --robot-model FILE",
+    ):
+        dfki_task(plain)
+    assert dfki_task(plain, robot_model=model_path).spec.model.design == "A.0"
+    with pytest.raises(ValueError, match=r"run 0 is a record of design C\.0 \(a packaged run\)"):
+        dfki_task((0, 1, 2), robot_model=model_path)
+    with pytest.raises(
+        ValueError,
+        match=r"run 0: the robot model \(the given parameters\) "
+        r"predicts its measured torque 16\.\d times worse",
+    ):
+        dfki_task((0, 1, 2), robot_model=syn.DESIGN_A_PARAMETERS)
+    with pytest.raises(
+        ValueError, match=r"designs A\.0 \(.*trajectory_00\.csv\) and C\.0 \(run 1\)"
+    ):
+        dfki_task((records[0], 1, 2), robot_model=syn.DESIGN_A_PARAMETERS)
+
+
+def test_dfki_cache_identity_holds_the_model(tmp_path):
+    """The packaged task keeps its name and the packaged model; records with the packaged model
+    (given or as a copy of its file) keep the digest they always had; another model is another
+    task name, so the store never mixes their cells; a fold's rows with a copy of the packaged
+    model file are the default's, bit for bit."""
+    import hashlib
+
+    from diffbench.bench.tasks import DfkiTask, get_task
+    from diffbench.signals import dfki
+
+    packaged = get_task("identify-dfki")
+    assert packaged.name == "identify-dfki" and packaged.spec.model is dfki.packaged_model()
+    paths = _copies(tmp_path, (0, 2, 4))
+    digest = hashlib.sha256()  # the name's digest as it was before models were an input
+    for path in paths:
+        record = dfki.read_dfki_record(path)
+        for array in (record.t, record.q, record.tau, record.tau_commanded):
+            digest.update(np.ascontiguousarray(array).tobytes())
+    old_name = f"identify-dfki-{digest.hexdigest()[:10]}"
+    copy = tmp_path / "model_parameters.yml"
+    copy.write_bytes((dfki._data_file("model_parameters.yml")).read_bytes())
+    assert DfkiTask(records=tuple(paths)).name == old_name
+    assert DfkiTask(records=tuple(paths), robot_model=copy).name == old_name
+    other = DfkiTask(records=tuple(paths), robot_model={**dfki.lab_parameters(), "l1": 0.21})
+    assert other.name.startswith("identify-dfki-") and other.name != old_name
+    method = methods.preset("savitzky_golay", "robot")
+    given = robot.DfkiCrossValidation(model=dfki.load_pendulum_model(copy))
+    assert given == robot.DfkiCrossValidation() and given.model.source == str(copy)
+    runs = (0, 2, 4)
+    default = robot.score_dfki_fold(method, robot.DfkiCrossValidation(records=runs), 1)
+    robot._run_equations.cache_clear()  # recompute with the given model, not from the cache
+    given = dataclasses.replace(given, records=runs)
+    assert robot.score_dfki_fold(method, given, 1) == default
+
+
+def test_cli_robot_model_option_and_refusal(tmp_path):
+    """As a process: records of design A.0 without --robot-model exit 2 with one line naming
+    the fix; with it they run; --robot-model without --records exits 2."""
+    records, model_path, _ = syn.lab_tree(tmp_path / "lab", duration_s=4.0)
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    base = [
+        sys.executable,
+        "-m",
+        "diffbench.bench",
+        "run",
+        "identify-dfki",
+        "--out",
+        str(tmp_path / "out"),
+        "--methods",
+        "finite_difference",
+        "--no-progress",
+    ]
+    refused = subprocess.run(
+        [*base, "--records", *map(str, records)], env=env, capture_output=True, text=True
+    )
+    assert refused.returncode == 2, refused.stderr
+    assert refused.stderr.count("\n") == 1 and "Traceback" not in refused.stderr
+    assert "is a record of design A.0" in refused.stderr and "--robot-model FILE" in refused.stderr
+    done = subprocess.run(
+        [*base, "--seeds", "1", "--records", *map(str, records), "--robot-model", str(model_path)],
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 0, done.stderr
+    (folder,) = [p for p in (tmp_path / "out").iterdir() if p.name.startswith("identify-dfki-")]
+    assert "| finite_difference |" in (folder / "summary.md").read_text()
+    alone = subprocess.run(
+        [*base, "--robot-model", str(model_path)], env=env, capture_output=True, text=True
+    )
+    assert alone.returncode == 2
+    assert "--robot-model is valid with --records only" in alone.stderr

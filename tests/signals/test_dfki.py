@@ -15,19 +15,24 @@ from scipy.signal import butter, sosfiltfilt
 
 from diffbench.signals.dfki import (
     DFKI_RUNS,
+    PACKAGED_DESIGN,
     PENDULUM_PARAMETER_NAMES,
     TIED_PARAMETER_NAMES,
     DfkiRun,
     base_parameters,
+    design_of_path,
     lab_base_parameters,
     lab_model_torques,
     lab_parameters,
     load_dfki_run,
+    load_pendulum_model,
+    packaged_model,
     pendulum_regressor,
     read_dfki_record,
     resample_uniform,
     tie_a4_to_a6,
 )
+from tests.signals import dfki_synthetic as syn
 
 DATA = files("diffbench.signals") / "data" / "dfki-double-pendulum"
 RAW_ROWS = (4993, 4974, 4979, 4993, 4999, 4997)  # data rows of trajectory_00..05.csv
@@ -503,3 +508,90 @@ def test_missing_record_file_and_bad_sources_are_refused(tmp_path):
         read_dfki_record(6)
     good = _write(tmp_path / "good.csv", GOOD_HEADER, _good_rows())
     assert read_dfki_record(good).q.shape == (120, 2)
+
+
+# --- the robot model: the lab's model_parameters.yml of any design ---------------------------
+def test_the_packaged_model_is_the_default_and_gives_the_same_bits():
+    """The default model is the packaged file; its torques, tie and base parameters are the
+    packaged functions' to the last bit (the packaged runs' results cannot move)."""
+    model = load_pendulum_model()
+    assert model is packaged_model() and model.design == PACKAGED_DESIGN == "C.0"
+    assert model.values == lab_parameters()
+    q, qd, qdd = random_states(np.random.default_rng(11), n=200)
+    np.testing.assert_array_equal(model.torques(q, qd, qdd), lab_model_torques(q, qd, qdd))
+    p = lab_parameters()
+    full = pendulum_regressor(q, qd, qdd)
+    np.testing.assert_array_equal(model.tie(full), tie_a4_to_a6(full, p["l1"], p["g"]))
+    np.testing.assert_array_equal(model.base_parameters(), lab_base_parameters())
+
+
+def test_a_model_file_of_another_design_is_that_robot(tmp_path):
+    """A design-A.0-like file where the lab keeps it: its design comes from the path, its
+    torques are the robot's own inverse dynamics (written out independently), its base
+    parameters regress them, and its tie uses its l1 = 0.3 m, not the packaged 0.2 m."""
+    path = syn.write_model(
+        tmp_path / "identified_parameters" / "design_A.0" / "model_2.0" / "model_parameters.yml"
+    )
+    model = load_pendulum_model(path)
+    assert model.design == "A.0" and model.source == str(path) and model.values["l1"] == 0.3
+    assert model != packaged_model()
+    assert model == load_pendulum_model(syn.DESIGN_A_PARAMETERS)  # the same robot
+    assert load_pendulum_model(syn.DESIGN_A_PARAMETERS).design is None
+    q, qd, qdd = random_states(np.random.default_rng(12), n=300)
+    truth = syn.inverse_dynamics(q, qd, qdd)
+    # |τ| reaches about 60 N·m here; both sides sum ~10 products each: 1e-12 is 1e4·eps·|τ|
+    assert np.max(np.abs(truth)) < 100
+    np.testing.assert_allclose(model.torques(q, qd, qdd), truth, rtol=0, atol=1e-12)
+    X = syn.true_base_parameters()
+    np.testing.assert_allclose(model.base_parameters(), X, rtol=1e-15)
+    full = pendulum_regressor(q, qd, qdd)
+    np.testing.assert_allclose(full @ X, truth, rtol=0, atol=1e-12)
+    a4 = PENDULUM_PARAMETER_NAMES.index("A4_m2_l1_r2")
+    np.testing.assert_allclose(model.tie(full) @ np.delete(X, a4), truth, rtol=0, atol=1e-12)
+    wrong = tie_a4_to_a6(full, 0.2, 9.81) @ np.delete(X, a4)  # the packaged l1
+    assert np.sqrt(np.mean((wrong - truth) ** 2)) > 0.1
+
+
+def test_design_of_path_reads_the_labs_folders():
+    lab = "data/experiment_records/design_A.0/20220815/sys_id/trajectory_03.csv"
+    assert design_of_path(lab) == "A.0"
+    assert design_of_path("x/identified_parameters/design_hD.0/model_h1.0/m.yml") == "hD.0"
+    assert design_of_path("design_B.0/a/design_C.1/measured.csv") == "C.1"  # the nearest
+    for plain in ("measured.csv", "my_design_A.0/measured.csv", "design_A.0.csv"):
+        assert design_of_path(plain) is None
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("I1: 0.1\n", r"lacks the keys \['I2', 'Ir'"),
+        ("I1 0.1\n", r"line 1 is not `key: number`"),
+        ("I1: one\n", r"line 1 is not `key: number`"),
+        (None, r": `l1` must be > 0, got 0\.0"),
+        ("nan", r": `I1` must be a finite number, got nan"),
+    ],
+)
+def test_bad_model_files_are_refused_in_one_line_naming_the_file(tmp_path, text, message):
+    path = tmp_path / "model_parameters.yml"
+    if text is None:
+        syn.write_model(path, {**syn.DESIGN_A_PARAMETERS, "l1": 0.0})
+    elif text == "nan":
+        syn.write_model(path, {**syn.DESIGN_A_PARAMETERS, "I1": math.nan})
+    else:
+        path.write_text(text)
+    with pytest.raises(ValueError, match=message) as caught:
+        load_pendulum_model(path)
+    assert str(path) in str(caught.value) and "\n" not in str(caught.value)
+
+
+def test_bad_model_sources_are_refused(tmp_path):
+    with pytest.raises(ValueError, match=r"absent\.yml: no such file"):
+        load_pendulum_model(tmp_path / "absent.yml")
+    with pytest.raises(ValueError, match=r"must be None .* got 3"):
+        load_pendulum_model(3)
+    with pytest.raises(ValueError, match=r"robot model: `g` must be a finite number, got inf"):
+        load_pendulum_model({**syn.DESIGN_A_PARAMETERS, "g": math.inf})
+    with pytest.raises(ValueError, match=r"lacks the keys \['m2'\]"):
+        load_pendulum_model({k: v for k, v in syn.DESIGN_A_PARAMETERS.items() if k != "m2"})
+    with pytest.raises(ValueError, match=r"`parameters` lacks the keys \['I2', 'Ir'"):
+        lab_model_torques(np.zeros((1, 2)), np.zeros((1, 2)), np.zeros((1, 2)), {"I1": 1.0})
