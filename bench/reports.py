@@ -374,8 +374,7 @@ def dfki_report(cells: pd.DataFrame, directory: Path, spec) -> list[Path]:
     """``summary`` (held-out measured torque, raw and filtered, beside the lab's model, ranked by
     joint 1), ``settings`` (what nested cross-validation chose on each fold) and ``table2``
     (parameters beside the lab's)."""
-    from diffbench.bench.robot import NESTED_VARIANT, parameter_names, setting_of
-    from diffbench.signals import dfki
+    from diffbench.bench.robot import NESTED_VARIANT, lab_reference, parameter_names, setting_of
 
     folds = len(spec.records)
     wide = tables.wide_table(cells, DFKI_SUMMARY)
@@ -394,7 +393,8 @@ def dfki_report(cells: pd.DataFrame, directory: Path, spec) -> list[Path]:
         f"{folds} leave-one-run-out folds whose joint is actuated; best joint 1 first)",
         f"Runs: {names} (open-loop torque excitations; a joint whose commanded torque is zero is "
         "passive and not scored: joint 1 in runs 3 and 4, joint 2 in run 5). τ RMSE: the "
-        "identified model (IDIM-LS, A4 tied to A6 by l1 = 0.2 m and g, both sides decimated "
+        f"identified model (IDIM-LS, A4 tied to A6 by l1 = {spec.model.values['l1']:g} m and g, "
+        "both sides decimated "
         f"alike with F_p = {spec.passband_hz:g} Hz) fed with the method's q, q̇, q̈ at the logged "
         "time stamps, against the measured torque as logged, on the samples "
         f"{spec.interior_margin_s:g} s inside each end; lab: the lab's published model fed with "
@@ -438,10 +438,7 @@ def dfki_report(cells: pd.DataFrame, directory: Path, spec) -> list[Path]:
             "(bench/robot.py: candidate_settings).",
         )
     identified = parameter_names(spec)
-    lab = dict(zip(dfki.PENDULUM_PARAMETER_NAMES, dfki.lab_base_parameters(), strict=True))
-    table = identification_table(
-        cells, identified, reference=("lab", np.array([lab[name] for name in identified]))
-    )
+    table = identification_table(cells, identified, reference=("lab", lab_reference(spec)))
     written += tables.write_report(
         directory,
         "table2",
