@@ -42,6 +42,19 @@ def _db(values) -> np.ndarray:
     return 20 * np.log10(np.maximum(np.abs(values), 1e-300))
 
 
+RESOLVED = 1e-12
+"""The least |H|, as a fraction of a response's peak, that a Bode curve draws: below it the
+computed response is rounding (the paper Jacobi's n = 2 response reaches 1e-14 of its peak
+above 300 Hz, and there moved by 1 dB between OpenBLAS kernels), drawn as a floor at 240 dB
+under the peak."""
+
+
+def _resolved_db(values) -> np.ndarray:
+    """|H| in dB, floored at :data:`RESOLVED` times its peak (what rounding leaves unresolved)."""
+    magnitude = np.abs(values)
+    return _db(np.maximum(magnitude, RESOLVED * magnitude.max()))
+
+
 def figure1_data(seed: int = 0, names=None) -> pd.DataFrame:
     """Errors of ẋ and ẍ over time of every method of ``names`` (default: every registered
     one) at its paper-signal preset, on one noise seed of the paper scenario.
@@ -70,13 +83,13 @@ def figure1_data(seed: int = 0, names=None) -> pd.DataFrame:
 
 def figure2_data(names=None) -> pd.DataFrame:
     """|H(f)| in dB of the second-order estimate of every linear method of ``names`` (default:
-    every registered one) at its paper-signal preset (``<method>_db``) and of the ideal s²
-    (``ideal_db``)."""
+    every registered one) at its paper-signal preset (``<method>_db``, floored at
+    :data:`RESOLVED` of its peak) and of the ideal s² (``ideal_db``)."""
     frame = {"frequency_hz": FREQUENCIES_HZ, "ideal_db": _db(ideal_response(FREQUENCIES_HZ, 2))}
     for name in names or methods.available():
         method = methods.preset(name, "paper-signal")
         if method.linear:
-            frame[f"{name}_db"] = _db(method.frequency_response(FREQUENCIES_HZ, DT, 2))
+            frame[f"{name}_db"] = _resolved_db(method.frequency_response(FREQUENCIES_HZ, DT, 2))
     return pd.DataFrame(frame)
 
 
@@ -88,7 +101,7 @@ def figure3_data() -> pd.DataFrame:
         for change in variants:
             method = methods.get("jacobi", **{**FIG3_BASE, **change})
             value = next(iter(change.values()))
-            frame[f"{parameter}={value:g}_db"] = _db(
+            frame[f"{parameter}={value:g}_db"] = _resolved_db(
                 method.frequency_response(FREQUENCIES_HZ, DT, 2)
             )
     return pd.DataFrame(frame)
