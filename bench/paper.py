@@ -42,15 +42,17 @@ def _db(values) -> np.ndarray:
     return 20 * np.log10(np.maximum(np.abs(values), 1e-300))
 
 
-RESOLVED = 1e-12
-"""The least |H|, as a fraction of a response's peak, that a Bode curve draws: below it the
-computed response is rounding (the paper Jacobi's n = 2 response reaches 1e-14 of its peak
-above 300 Hz, and there moved by 1 dB between OpenBLAS kernels), drawn as a floor at 240 dB
-under the peak."""
+RESOLVED = 1e-8
+"""The least |H|, as a fraction of a response's peak, that a Bode curve draws, as a floor
+160 dB under the peak. The computed response carries rounding of about 1e-16 of the peak (a
+sum of taps with cancellation): the paper Jacobi's n = 2 response, which falls to 1e-14 of
+its peak above 300 Hz, moved there by 1 dB between OpenBLAS kernels, and by 1e-4 dB at 1e-11
+of its peak, enough to change a pixel's shade. At 1e-8 of the peak and above the rounding
+moves a curve by under 1e-7 dB."""
 
 
 def _resolved_db(values) -> np.ndarray:
-    """|H| in dB, floored at :data:`RESOLVED` times its peak (what rounding leaves unresolved)."""
+    """|H| in dB, floored at :data:`RESOLVED` times its peak (below, rounding shows)."""
     magnitude = np.abs(values)
     return _db(np.maximum(magnitude, RESOLVED * magnitude.max()))
 
