@@ -149,7 +149,7 @@ def _timed(
         label = plugin_label(cell.method)
         where = f"{label}: method {cell.method}: " if label else ""
         return Failed(f"{where}timed out after {timeout_s:g} s (--timeout)")
-    except Exception as error:
+    except (Exception, SystemExit) as error:  # a plugin may call sys.exit
         reason = plugin_failure(cell.method, error)
         if reason is None:
             raise
@@ -310,7 +310,7 @@ def _tune(job: TuningJob) -> dict[str, Any] | None:
     realisations = [task.tuning_data(seed) for seed in job.seeds]
     try:
         return _tuned(job, realisations)
-    except Exception as error:
+    except (Exception, SystemExit) as error:  # a plugin may call sys.exit
         reason = plugin_failure(job.method, error)
         if reason is None:
             raise

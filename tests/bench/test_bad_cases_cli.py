@@ -20,6 +20,7 @@ from diffbench.bench.tasks import get_task
 
 PLUGIN = textwrap.dedent(
     """
+    import sys
     import time
 
     import numpy as np
@@ -40,6 +41,12 @@ PLUGIN = textwrap.dedent(
     class Raises(_Base):
         def _values(self, x, orders):
             raise RuntimeError("the plugin's own bug")
+
+
+    @register("bad.exits")
+    class Exits(_Base):
+        def _values(self, x, orders):
+            sys.exit(5)
 
 
     @register("bad.shape")
@@ -265,32 +272,39 @@ def test_a_plugin_method_that_fails_is_a_named_failed_cell_retried_by_the_next_r
         "1",
         "--no-progress",
         "--methods",
-        "bad.raises,bad.shape,bad.nan,bad.inf,finite_difference",
+        "bad.raises,bad.exits,bad.shape,bad.nan,bad.inf,finite_difference",
         "--out",
         tmp_path,
     ]
     result = _diffbench(*argv, env=plugin)
     assert result.returncode == 0, result.stderr
     assert "Traceback" not in result.stderr
-    assert "1 cells computed, 0 already stored, 4 failed" in result.stdout
+    assert "1 cells computed, 0 already stored, 5 failed" in result.stdout
     prefix = "cell failed: {} on paper-signal seed 0: plugin bad_methods (dist none): method {}: "
     for name, reason in [
         ("bad.raises", "RuntimeError: the plugin's own bug"),
+        ("bad.exits", "SystemExit: 5"),
         ("bad.shape", "ValueError: valid mask of order 0 does not match the time axis"),
         ("bad.nan", "ValueError: order 0: the estimate is not finite exactly on its valid"),
         ("bad.inf", "ValueError: order 0: the estimate is not finite exactly on its valid"),
     ]:
         assert prefix.format(name, name) + reason in result.stderr
-    assert "4 cells of paper-signal failed and are not in its tables" in result.stderr
+    assert "5 cells of paper-signal failed and are not in its tables" in result.stderr
     failed = pd.read_csv(tmp_path / "paper-signal" / "failed.csv")
-    assert sorted(failed["method"]) == ["bad.inf", "bad.nan", "bad.raises", "bad.shape"]
+    assert sorted(failed["method"]) == [
+        "bad.exits",
+        "bad.inf",
+        "bad.nan",
+        "bad.raises",
+        "bad.shape",
+    ]
     # a failed cell is not a finished one: the next run tries it again, and only it
     again = _diffbench(*argv, env=plugin)
     assert again.returncode == 0, again.stderr
-    assert "0 cells computed, 1 already stored, 4 failed" in again.stdout
+    assert "0 cells computed, 1 already stored, 5 failed" in again.stdout
     store = Store(tmp_path / "store")
-    assert len(store.cells.records) == 1 and len(store.failures.records) == 8
-    assert len(store.failed_cells("paper-signal")) == 4
+    assert len(store.cells.records) == 1 and len(store.failures.records) == 10
+    assert len(store.failed_cells("paper-signal")) == 5
 
 
 # 6 -----------------------------------------------------------------------------------------
