@@ -86,13 +86,13 @@ FIT_RESTARTS = 1
 likelihood of an RBF + noise model has local optima, e.g. noise fitted as signal)."""
 
 FIT_GRID = 0.01
-"""Step of the grid (in natural log) the fitted length scale and noise ratio are rounded to
-before the posterior is formed (:func:`snap_to_grid`): 1 %, far below the fit's statistical
-uncertainty. The likelihood is flat at its optimum, so L-BFGS-B's optimum is only defined to
-about 1e-7 relative and moves that much with the BLAS kernel's rounding (3e-8 to 8e-7 between
-OpenBLAS's SkylakeX, Haswell and Sandybridge kernels on the paper signal, polished or not);
-rounded, the estimate is the same on every kernel but for optima within that distance of a
-grid boundary (about 2e-5 of fits)."""
+"""Step of the grid (in natural log) the fitted length scale (in sampling steps) and noise
+ratio are rounded to before the posterior is formed (:func:`snap_to_grid`): 1 %, far below the
+fit's statistical uncertainty. The likelihood is flat at its optimum, so L-BFGS-B's optimum is
+only defined to about 1e-7 relative and moves that much with the BLAS kernel's rounding (3e-8
+to 8e-7 between OpenBLAS's SkylakeX, Haswell and Sandybridge kernels on the paper signal,
+polished or not); rounded, the estimate is the same on every kernel but for optima within that
+distance of a grid boundary (about 2e-5 of fits)."""
 
 STRAIGHT = 1e-12
 """A record whose residual from its least-squares line has an RMS below this fraction of the
@@ -713,7 +713,8 @@ class GaussianProcessMarginalLikelihood(Method):
                 line, slope = _least_squares_line(column, dt)
                 estimate = {0: line, 1: np.full(n, slope), 2: np.zeros(n)}
             else:
-                length_scale_s = snap_to_grid(fitted[0], dt, max(2 * dt, (n - 1) * dt))
+                # the grid in steps, so that a record's estimate scales with its step exactly
+                length_scale_s = dt * snap_to_grid(fitted[0] / dt, 1.0, max(2.0, n - 1.0))
                 ratio = snap_to_grid(fitted[1], MIN_NOISE_RATIO, MAX_NOISE_RATIO)
                 estimate = posterior_derivatives(column, dt, orders, length_scale_s, ratio)
                 at_fit = GaussianProcess(length_scale_s=length_scale_s, noise_ratio=ratio)

@@ -393,10 +393,12 @@ def test_the_data_only_estimate_uses_the_fit_rounded_to_its_grid():
     nudged = x * (1 + 1e-13 * np.random.default_rng(0).standard_normal(x.size))
     fits = [fit_hyperparameters(_canonical(record), dt) for record in (x, nudged)]
     assert fits[0][:2] != fits[1][:2]  # the raw optimum moves with rounding...
-    span = (x.size - 1) * dt
-    snapped = [(snap_to_grid(fit[0], dt, span), snap_to_grid(fit[1], 1e-3, 1e3)) for fit in fits]
+    snapped = [  # the length scale on the grid in sampling steps
+        (dt * snap_to_grid(fit[0] / dt, 1.0, x.size - 1.0), snap_to_grid(fit[1], 1e-3, 1e3))
+        for fit in fits
+    ]
     assert snapped[0] == snapped[1]  # ...the grid point does not
-    for value in snapped[0]:  # a point of the grid, near the fit
+    for value in (snapped[0][0] / dt, snapped[0][1]):  # a point of the grid, near the fit
         assert np.log(value) / FIT_GRID == pytest.approx(round(np.log(value) / FIT_GRID), abs=1e-6)
     assert snapped[0][0] == pytest.approx(fits[0][0], rel=FIT_GRID)
     estimate = methods.get("gaussian_process_ml")(x, dt, orders=(0, 1, 2))
