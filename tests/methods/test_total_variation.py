@@ -76,7 +76,9 @@ def test_agrees_with_a_general_solver_on_the_split_problem(tv_order):
         objective, start, jac=gradient, constraints=[bounds], method="SLSQP",
         options={"ftol": 1e-14, "maxiter": 1000},
     )  # fmt: skip
-    assert reference.success
+    # status 8: SLSQP's line search found no descent left at rounding level (seen under
+    # OpenBLAS Sandybridge at ftol 1e-14): the point is then judged by the checks below
+    assert reference.success or reference.status == 8, reference.message
     z = trend_filter(x, penalty, tv_order)
     np.testing.assert_allclose(z, reference.x[:n], atol=1e-6)
     assert objective(np.concatenate([z, np.abs(difference @ z)])) <= reference.fun + 1e-12
