@@ -93,8 +93,8 @@ lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 
-# two worker processes (pytest-xdist): the suite takes about 4-5 min on 2 cores (4.0 min on
-# 2026-11-28, nothing else running; 8.6-9.4 min on a slower machine)
+# two worker processes (pytest-xdist): the suite took 7.7 min on 2 cores here on 2026-11-28,
+# nothing else running (about 100 s of it the paper suite rerun under two BLAS kernels)
 test: lint
 	$(BIN)/python -m pytest -q -n 2 --benchmark-disable
 
