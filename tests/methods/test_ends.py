@@ -225,12 +225,12 @@ def test_savitzky_golay_read_away_from_its_ends_skips_their_fits():
     alone: the samples read are the full call's, the end samples (which the full call fits
     one-sidedly, and keeps where its ends check trusts them) come back NaN and invalid;
     reading one of them gets the full call."""
-    method = methods.get("savitzky_golay", window_s=0.1, degree=2)  # masks 11 of 50 an end
+    method = methods.get("savitzky_golay", window_s=0.1, degree=2)  # masks 31 of 50 an end
     reach = method.end_reach(DT)
     n = 400
     x = np.sin(2 * np.pi * 3 * np.arange(n) * DT)
     full = method(x, DT, (1,))
-    assert full.valid[1][reach // 2 : reach].all()  # end samples the full call keeps
+    assert full.valid[1][2 * reach // 3 : reach].all()  # end samples the full call keeps
     away = method.estimate_within(x, DT, (1,), reach, n - 1 - reach)
     inside = slice(reach, n - reach)
     assert np.array_equal(away[1][inside], full[1][inside])
