@@ -255,8 +255,11 @@ class _ToeplitzKernel:
         if np.any((peak > 0) & ((peak < 2.0**-400) | (peak > 2.0**400))):
             # columns far from 1 (3e-137 once made r'z underflow to 0/0): solved scaled by a
             # power of two, which changes no rounding, then scaled back
-            power = np.ldexp(1.0, -np.frexp(np.where(peak > 0, peak, 1.0))[1])
-            return self.solve(y * power) / power
+            exponent = np.frexp(np.where(peak > 0, peak, 1.0))[1]
+            return np.ldexp(self._solve(np.ldexp(y, -exponent), True), exponent)
+        return self._solve(y, overwrite_y)
+
+    def _solve(self, y: np.ndarray, overwrite_y: bool) -> np.ndarray:
         target = SOLVER_TOLERANCE * np.sqrt(_column_dots(y, y))
         solution = np.zeros_like(y)
         moving = np.flatnonzero(target > 0)  # a zero column's solution is zero
