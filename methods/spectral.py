@@ -19,20 +19,6 @@ LEAN_PERIOD = _fft.SPLIT_FROM
 """Periods (samples of the extended record) from which :func:`spectral_derivatives` works
 channel by channel and block by block (:func:`_lean_derivatives`): no array of the extended
 record but the one being transformed, and the transforms split (:mod:`._fft`)."""
-END_REACH_TRANSITIONS = 0.35
-"""The ends check (:mod:`methods._ends`) looks this many times 1/(rolloff · cutoff) into the
-record from each end (135 samples at the paper-signal preset, 1 ms steps); within it, it
-masks the samples its criteria fail. Chosen by measurement (paper signal over 1.237 s, whose
-ends do not meet, 20 seeds, the preset and an oracle-tuned setting): from 0.35 on, no valid
-sample's RMS error exceeds the worst interior sample's (at most 2.37 times the interior's
-RMS); 0.3 gave 2.59, 0.25 3.02. It is less than the time the raised-cosine kernel takes to
-decay (its envelope :math:`1/(2\\pi f_c t\\,(4 r^2 f_c^2 t^2 - 1))` of the peak is
-:math:`r/(6\\pi)` at 1/(r f_c)); over that span the ends check, asked about unit sinusoids
-at every phase across the band, masks up to 300 samples an end at the preset (records whose
-ends meet lose them for nothing): better end estimates are issue 45's."""
-END_REACH_LEAST_ROLLOFF = 0.05
-"""The rolloff the reach takes for narrower transitions (a brick wall's kernel decays as 1/t:
-it has no reach of its own)."""
 MAX_RECORD_STEPS = 1e9
 """The longest record the lowest cutoff may demand (two of its periods), in sampling steps."""
 
@@ -320,16 +306,12 @@ class Spectral(Method):
     """FFT differentiation of the record made periodic, with a raised-cosine low-pass (see
     :func:`spectral_derivatives`).
 
-    The record must span at least two periods of the cutoff. The ends are checked
-    (:mod:`methods._ends`) up to 0.35/(``rolloff`` · ``cutoff_hz``) from each end
-    (:data:`END_REACH_TRANSITIONS`; ``rolloff`` taken as at least 0.05): made periodic, a
-    record whose ends do not meet jumps at the joins (the odd reflection in its curvature),
-    and the samples that jump spoils are masked. With ``extension="none"`` the caller says
-    the record is one period: nothing is masked. Long records (from about 1e6 samples) are
-    transformed in bounded memory: 694 MiB at 1e7 samples (see :func:`_lean_derivatives`).
-    Linear in the input. Exact on polynomials of ``fit_degree`` with the ``odd-fitted``
-    extension, on straight lines with ``odd`` and on constants with the others: the
-    polynomial taken out is differentiated exactly, and a low-pass passes 0 Hz unchanged.
+    The record must span at least two periods of the cutoff. Every sample is estimated (no
+    masked ends). Long records (from about 1e6 samples) are transformed in bounded memory:
+    694 MiB at 1e7 samples (see :func:`_lean_derivatives`). Linear in the input. Exact on
+    polynomials of ``fit_degree`` with the ``odd-fitted`` extension, on straight lines with
+    ``odd`` and on constants with the others: the polynomial taken out is differentiated
+    exactly, and a low-pass passes 0 Hz unchanged.
     Its frequency response away from the ends is :math:`H(f)(i2\\pi f)^n`.
 
     Parameters
@@ -425,14 +407,6 @@ class Spectral(Method):
 
     def unused_params(self) -> tuple[str, ...]:
         return () if self.extension == "odd-fitted" else ("fit_degree",)
-
-    def end_reach(self, dt: float) -> int | None:
-        if self.extension == "none":
-            return None  # the caller says the record is one period: it has no ends
-        # the low-pass's kernel decays over about 1/(rolloff cutoff) (as 1/t for the brick
-        # wall, whose reach is then the least rolloff's); see END_REACH_TRANSITIONS
-        transition_hz = max(self.rolloff, END_REACH_LEAST_ROLLOFF) * self.cutoff_hz
-        return math.ceil(END_REACH_TRANSITIONS / (transition_hz * dt))
 
     def exact_degree(self, order: int) -> float | None:
         if self.extension == "odd-fitted":

@@ -101,11 +101,10 @@ def test_figure1_errors_are_estimate_minus_truth(figure1):
         assert row["finite_difference_acceleration_error"] == pytest.approx(
             second - acceleration, rel=1e-9, abs=1e-6
         )
-    # the end samples: the one-sided 3-point differences
-    first = (-3 * x[0] + 4 * x[1] - x[2]) / (2 * dt)
-    assert data["finite_difference_velocity_error"].iloc[0] == pytest.approx(
-        first - data["velocity_true"].iloc[0], rel=1e-9, abs=1e-9
-    )
+    # the end samples, one-sided 3-point differences, pass on a sinusoid but amplify white
+    # noise sqrt(26)/2 / (sqrt(2)/2) = 3.6 times the central ones (methods._ends): masked
+    assert np.isnan(data["finite_difference_velocity_error"].iloc[[0, -1]]).all()
+    assert np.isfinite(data["finite_difference_velocity_error"].iloc[[1, -2]]).all()
 
 
 def test_figure5_has_every_method_with_a_robot_preset():

@@ -9,6 +9,7 @@ from scipy.optimize import LinearConstraint, minimize
 
 from diffbench import methods
 from diffbench.methods.total_variation import (
+    END_SAMPLES,
     difference_adjoint,
     fused_penalty,
     trend_derivatives,
@@ -115,8 +116,8 @@ def test_polynomials_of_degree_k_are_kept_and_differentiated_exactly(tv_order):
     poly = np.polynomial.Polynomial([0.3, -1.2, 0.7][: tv_order + 1])
     estimate = methods.get("total_variation", penalty=1e-3, tv_order=tv_order)(poly(t), dt)
     for order in (0, 1, 2):
-        valid = estimate.valid[order]  # all but ẋ's two end samples (one-sided differences)
-        assert valid.sum() == t.size - (2 if order == 1 else 0)
+        valid = estimate.valid[order]  # all but the end samples that read the trend's ends
+        assert valid.sum() == t.size - 2 * END_SAMPLES[order]
         np.testing.assert_allclose(
             estimate[order][valid], poly.deriv(order)(t[valid]), rtol=0, atol=1e-9
         )
@@ -140,7 +141,9 @@ def test_penalty_is_per_second_not_per_sample():
         alpha = 1e-6
         estimate = methods.get("total_variation", penalty=alpha, tv_order=tv_order)(x, dt)
         direct = trend_filter(x, alpha / dt ** (tv_order + 1), tv_order)
-        np.testing.assert_array_equal(estimate[0], direct)
+        valid = estimate.valid[0]
+        assert valid.sum() == x.size - 2 * END_SAMPLES[0]
+        np.testing.assert_array_equal(estimate[0][valid], direct[valid])
 
 
 def test_a_kink_in_the_slope_is_kept_sharp():
@@ -182,12 +185,18 @@ def test_bad_parameters_are_refused_by_name(params, message):
         methods.get("total_variation", **params)
 
 
-@pytest.mark.parametrize(("tv_order", "shortest"), [(1, 3), (2, 4)])
-def test_records_shorter_than_k_plus_2_are_refused(tv_order, shortest):
+@pytest.mark.parametrize("tv_order", [1, 2])
+def test_records_without_a_valid_sample_are_refused(tv_order):
+    # k + 2 samples make the penalty; the masked ends and one valid sample between need more
+    shortest = 2 * max(END_SAMPLES.values()) + 1
+    assert shortest >= tv_order + 2
     method = methods.get("total_variation", tv_order=tv_order)
     with pytest.raises(ValueError, match=rf"`x` has {shortest - 1} samples .* {shortest}"):
         method(np.arange(shortest - 1.0), 1e-3)
-    assert np.isfinite(method(np.arange(float(shortest)) ** 2, 1e-3)[2]).all()
+    estimate = method(np.arange(float(shortest)) ** 2, 1e-3)
+    for order in (0, 1, 2):
+        assert estimate.valid[order].sum() == shortest - 2 * END_SAMPLES[order]
+        assert np.isfinite(estimate[order][estimate.valid[order]]).all()
 
 
 def test_the_method_holds_fewer_than_eleven_record_length_arrays(peak_arrays):

@@ -80,10 +80,12 @@ def per_sample_ratios(method, realisations) -> dict[int, np.ndarray]:
     ratios = {}
     for order in (0, 1, 2):
         valid = np.array([e.valid[order] for e in estimates])
-        squared = np.array([
-            np.where(e.valid[order], e[order] - r.truth[order], 0.0) ** 2
-            for e, r in zip(estimates, realisations, strict=True)
-        ])  # fmt: skip
+        squared = np.array(
+            [
+                np.where(e.valid[order], e[order] - r.truth[order], 0.0) ** 2
+                for e, r in zip(estimates, realisations, strict=True)
+            ]
+        )
         inner = valid[:, interior]
         assert inner.mean() > 0.9, f"order {order}: the interior is {inner.mean():.0%} valid"
         reference = np.sqrt(squared[:, interior].sum() / inner.sum())
@@ -119,39 +121,49 @@ def check(name: str, setting: str, duration_s: float) -> None:
         )
 
 
-@pytest.mark.parametrize(("name", "setting"), [c for n in NATIVE for c in settings(n)])
-def test_no_valid_sample_is_three_times_worse_than_the_interior(name, setting):
-    check(name, setting, 1.237)
-
-
+SPECTRAL_ENDS = "issue 45: spectral's ends need an estimator, not a mask"
 NOT_YET: dict[tuple[str, str, float], str] = {
-    ("spectral", "preset", 2.345): "ẋ 3.5x at 14 samples ~200 from the end (reach 135)",
-    ("spectral", "tuned", 2.345): "x 3.1x at 2 samples ~135 from the end",
-    ("spectral", "preset", 4.937): "ẍ 3.2x at 2 samples 136 from the end",
-    ("total_variation", "preset", 2.345): "ẋ 3.1x at the 4th sample from the end",
-    ("total_variation", "tuned", 2.345): "ẋ 3.1x at the 4th sample from the end",
-    ("total_variation", "preset", 4.937): "ẋ 3.4x at the 4th sample from the end",
-    ("total_variation", "tuned", 4.937): "ẋ 3.4x at the 4th sample from the end",
+    ("spectral", "preset", 1.1): f"ẍ 9.2x at the ends ({SPECTRAL_ENDS})",
+    ("spectral", "tuned", 1.1): f"ẍ 8.8x at the ends ({SPECTRAL_ENDS})",
+    ("spectral", "preset", 1.237): f"ẋ 11.8x at the ends ({SPECTRAL_ENDS})",
+    ("spectral", "tuned", 1.237): f"ẋ 10.3x at the ends ({SPECTRAL_ENDS})",
+    ("spectral", "preset", 2.345): f"ẋ 53x at the ends ({SPECTRAL_ENDS})",
+    ("spectral", "tuned", 2.345): f"ẋ 50x at the ends ({SPECTRAL_ENDS})",
+    ("spectral", "preset", 4.937): f"ẋ 26x at the ends ({SPECTRAL_ENDS})",
+    ("spectral", "tuned", 4.937): f"ẋ 23x at the ends ({SPECTRAL_ENDS})",
 }
-"""Cases the marks still miss (strict: the test says when they pass). Spectral's reach
-(``spectral.END_REACH_TRANSITIONS``) was set on 1.237 s; its ends check over the kernel's full
-decay would mask up to 300 samples an end. Total variation is not linear: no ends check, a
-fixed count of end samples masked. Better end estimates are issue 45's."""
+"""Cases the marks still miss (strict: the test says when they pass). ``spectral`` estimates
+every sample and marks every one valid; made periodic, a record whose ends do not meet jumps
+in its curvature at the joins, and the raised-cosine kernel spreads that jump over about
+1/(rolloff cutoff): up to 53 times the interior's RMS error (ẋ, 2.345 s). A mask that holds
+on every length (the ends check over the kernel's decay) takes up to 300 samples an end, a
+third of the 1 s record, including records whose ends meet and are exact (1.0 s: 3.2x at
+most); a degree-3 fit of the ends does worse (ẍ up to 101x). An end estimator is issue 45's
+first item; until then these cases stay visible here."""
 
 
-def other_lengths():
-    for duration_s in (1.1, 2.345, 4.937):
+def on_lengths(*durations_s: float) -> list:
+    """Every native method and setting on each of ``durations_s``, the cases of
+    :data:`NOT_YET` as strict expected failures."""
+    cases = []
+    for duration_s in durations_s:
         for name in NATIVE:
             for case in settings(name):
                 setting = case.values[1]
                 reason = NOT_YET.get((name, setting, duration_s))
                 marks = [pytest.mark.xfail(reason=reason, strict=True)] if reason else []
-                yield pytest.param(name, setting, duration_s, marks=marks,
-                                   id=f"{duration_s:g}s-{case.id}")  # fmt: skip
+                case_id = f"{duration_s:g}s-{case.id}"
+                cases.append(pytest.param(name, setting, duration_s, marks=marks, id=case_id))
+    return cases
+
+
+@pytest.mark.parametrize(("name", "setting", "duration_s"), on_lengths(1.237))
+def test_no_valid_sample_is_three_times_worse_than_the_interior(name, setting, duration_s):
+    check(name, setting, duration_s)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("name", "setting", "duration_s"), other_lengths())
+@pytest.mark.parametrize(("name", "setting", "duration_s"), on_lengths(1.1, 2.345, 4.937))
 def test_no_valid_sample_is_three_times_worse_on_other_lengths(name, setting, duration_s):
     check(name, setting, duration_s)
 
