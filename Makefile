@@ -89,9 +89,12 @@ studies: $(STAMP)
 timing: $(STAMP)
 	$(BIN)/diffbench timing --out results
 
+# one formatting for the whole tree: ruff's, with no line exempted from it
 lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
+	@! grep -rnE --include='*.py' 'fmt: *(skip|off)' bench methods signals tests \
+	  || { echo "lint: remove the formatter exemptions above (ruff format decides)"; exit 1; }
 
 # two worker processes (pytest-xdist): the suite took 7.7 min on 2 cores here on 2026-11-28,
 # nothing else running (about 100 s of it the paper suite rerun under two BLAS kernels)

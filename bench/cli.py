@@ -83,8 +83,9 @@ def _record_length(text: str) -> int:
         value = math.nan
     exponent = math.log10(value) if value > 0 else math.nan
     if not (4 <= exponent <= 8 and exponent == round(exponent)):
-        raise argparse.ArgumentTypeError(f"must be a power of ten from 1e4 to 1e8, e.g. 1e6, "
-                                         f"got {text!r}")  # fmt: skip
+        raise argparse.ArgumentTypeError(
+            f"must be a power of ten from 1e4 to 1e8, e.g. 1e6, got {text!r}"
+        )
     return int(value)
 
 
@@ -444,8 +445,10 @@ def _cmd_list(args) -> None:
         shipped = [p for p in plugins if f"{cls.__module__}.".startswith(f"{p.module}.")]
         origin = f"; plugin {shipped[0].label}" if shipped else ""
         kind = ("linear" if cls.linear else "nonlinear") + (", causal" if cls.causal else "")
-        print(f"  {name}  ({kind}; runs {methods.package_of(name)}; {cls.reference}{origin}; "
-              f"time stamps: {STAMPS_SHOWN.get(cls.time_stamps, cls.time_stamps)})")  # fmt: skip
+        print(
+            f"  {name}  ({kind}; runs {methods.package_of(name)}; {cls.reference}{origin}; "
+            f"time stamps: {STAMPS_SHOWN.get(cls.time_stamps, cls.time_stamps)})"
+        )
         if cls.second_derivative != "native":
             print(f"      ẍ: {cls.second_derivative}")
         for spec in methods.params_of(cls):
@@ -467,9 +470,10 @@ def _cmd_list(args) -> None:
         task = get_task(name)
         print(f"  {name} [{task.kind}]: {task.description}")
     unlisted = [n for n in available_tasks() if not get_task(n).listed]
-    for prefix, kind, how in (("grid-", "grid", "diffbench grid"),
-                              ("limit-", "limit (random signals, known least error)",
-                               "diffbench run TASK")):  # fmt: skip
+    for prefix, kind, how in (
+        ("grid-", "grid", "diffbench grid"),
+        ("limit-", "limit (random signals, known least error)", "diffbench run TASK"),
+    ):
         names = [n for n in unlisted if n.startswith(prefix)]
         if names:
             print(f"  ... and {len(names)} {kind} tasks ({names[0]} ... {names[-1]}; {how})")
@@ -493,8 +497,9 @@ def _workers(args) -> None:
         return
     if getattr(args, "records", None):
         raise UsageError("--records runs on this machine only: drop --executor/--scheduler")
-    args.jobs = executor.DaskWorkers(address=args.scheduler, workers=args.jobs,
-                                     plugins=tuple(args.plugins))  # fmt: skip
+    args.jobs = executor.DaskWorkers(
+        address=args.scheduler, workers=args.jobs, plugins=tuple(args.plugins)
+    )
     with user_input("--executor dask: "):
         executor.check(args.jobs)
 
@@ -833,8 +838,10 @@ def _cmd_limit(args) -> None:
     tasks = args.scenarios or limit.task_names()
     unknown = sorted(set(tasks) - set(limit.task_names()))
     if unknown:
-        raise UsageError(f"--scenarios: not limit scenarios: {', '.join(unknown)}; "
-                         f"choose among {', '.join(limit.task_names())}")  # fmt: skip
+        raise UsageError(
+            f"--scenarios: not limit scenarios: {', '.join(unknown)}; "
+            f"choose among {', '.join(limit.task_names())}"
+        )
     names = _method_names(args.methods) or methods.available()
     store = _open_store(args.out)
     found, _ = _tune(limit.tuning_jobs(names, args.orders, tasks), store, args)

@@ -81,8 +81,12 @@ def _dask_client(spec: DaskWorkers):
     Client, LocalCluster = distributed.Client, distributed.LocalCluster
     cluster = None
     if spec.address is None:
-        cluster = LocalCluster(n_workers=spec.workers, threads_per_worker=1,
-                               processes=spec.processes, dashboard_address=None)  # fmt: skip
+        cluster = LocalCluster(
+            n_workers=spec.workers,
+            threads_per_worker=1,
+            processes=spec.processes,
+            dashboard_address=None,
+        )
         client = Client(cluster)
     else:
         try:
@@ -264,8 +268,12 @@ def _serial(items: Sequence[Any], jobs: int) -> bool:
 
 def _pool(jobs: int, n_items: int) -> ProcessPoolExecutor:
     """Worker processes that ignore Ctrl-C and exit when this process dies."""
-    return ProcessPoolExecutor(max_workers=min(jobs, n_items), mp_context=_context(),
-                               initializer=_worker_start, initargs=(os.getpid(),))  # fmt: skip
+    return ProcessPoolExecutor(
+        max_workers=min(jobs, n_items),
+        mp_context=_context(),
+        initializer=_worker_start,
+        initargs=(os.getpid(),),
+    )
 
 
 def stop(pool: ProcessPoolExecutor) -> None:

@@ -25,22 +25,69 @@ from diffbench import methods
 # Tableau 10 without its grey (kept for "outside the interior" shading), then Matplotlib's
 # tab20b and tab20c, and as many dash patterns: a method keeps its colour and its line style in
 # every figure, and curves differ by both (38 methods before a colour or a pattern repeats).
-_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
-            "#bcbd22", "#17becf",
-            "#393b79", "#5254a3", "#6b6ecf", "#9c9ede", "#637939", "#8ca252", "#b5cf6b",
-            "#cedb9c", "#8c6d31", "#bd9e39", "#e7ba52", "#e7cb94", "#843c39", "#ad494a",
-            "#d6616b", "#e7969c", "#7b4173", "#a55194", "#ce6dbd", "#de9ed6",
-            "#3182bd", "#6baed6", "#e6550d", "#fd8d3c", "#31a354", "#74c476", "#756bb1",
-            "#9e9ac8", "#636363")  # fmt: skip
-_LINESTYLES = ("-", "--", "-.", ":", (0, (5, 1.5, 1, 1.5, 1, 1.5)), (0, (8, 2)), (0, (1, 3)),
-               (0, (3, 1, 1, 1)), (0, (12, 3, 3, 3)), (0, (2, 1)), (0, (6, 2, 1, 2, 1, 2)),
-               (0, (1, 1)),
-               *((0, (on, off)) for on in (4, 7, 10, 14) for off in (1.5, 3.5, 5)),
-               *((0, (on, 2, 1, 2, 1, 2, 1, 2)) for on in (4, 8, 12)),
-               *((0, (on, 1.5, 3, 1.5)) for on in (6, 9, 13)),
-               *((0, (1, 2, on, 2)) for on in (5, 9, 15)),
-               (0, (2, 4)), (0, (16, 4, 2, 4)), (0, (3, 3, 3, 6)), (0, (20, 5)),
-               (0, (6, 3, 6, 6, 1, 3)))  # fmt: skip
+_COLOURS = (
+    "#1f77b4",
+    "#ff7f0e",
+    "#2ca02c",
+    "#d62728",
+    "#9467bd",
+    "#8c564b",
+    "#e377c2",
+    "#bcbd22",
+    "#17becf",
+    "#393b79",
+    "#5254a3",
+    "#6b6ecf",
+    "#9c9ede",
+    "#637939",
+    "#8ca252",
+    "#b5cf6b",
+    "#cedb9c",
+    "#8c6d31",
+    "#bd9e39",
+    "#e7ba52",
+    "#e7cb94",
+    "#843c39",
+    "#ad494a",
+    "#d6616b",
+    "#e7969c",
+    "#7b4173",
+    "#a55194",
+    "#ce6dbd",
+    "#de9ed6",
+    "#3182bd",
+    "#6baed6",
+    "#e6550d",
+    "#fd8d3c",
+    "#31a354",
+    "#74c476",
+    "#756bb1",
+    "#9e9ac8",
+    "#636363",
+)
+_LINESTYLES = (
+    "-",
+    "--",
+    "-.",
+    ":",
+    (0, (5, 1.5, 1, 1.5, 1, 1.5)),
+    (0, (8, 2)),
+    (0, (1, 3)),
+    (0, (3, 1, 1, 1)),
+    (0, (12, 3, 3, 3)),
+    (0, (2, 1)),
+    (0, (6, 2, 1, 2, 1, 2)),
+    (0, (1, 1)),
+    *((0, (on, off)) for on in (4, 7, 10, 14) for off in (1.5, 3.5, 5)),
+    *((0, (on, 2, 1, 2, 1, 2, 1, 2)) for on in (4, 8, 12)),
+    *((0, (on, 1.5, 3, 1.5)) for on in (6, 9, 13)),
+    *((0, (1, 2, on, 2)) for on in (5, 9, 15)),
+    (0, (2, 4)),
+    (0, (16, 4, 2, 4)),
+    (0, (3, 3, 3, 6)),
+    (0, (20, 5)),
+    (0, (6, 3, 6, 6, 1, 3)),
+)
 _MARKERS = ("o", "s", "^", "v", "P", "X", "h", "<", ">")
 
 #: A method is drawn on its own y range when its RMSE exceeds this multiple of the median RMSE
@@ -164,13 +211,15 @@ def error_figure_data(table: pd.DataFrame) -> pd.DataFrame:
         )
     if table.empty:
         raise ValueError("`table` has no rows")
-    base = pd.DataFrame({
-        "label": [f"{m} — {s}" for m, s in zip(table["method"], table["setting"], strict=True)],
-        "method": table["method"].astype(str).to_numpy(),
-        "setting": table["setting"].astype(str).to_numpy(),
-        "preset": _is_preset(table),
-        "seeds": pd.to_numeric(table["seeds"], errors="coerce").astype(float).to_numpy(),
-    })  # fmt: skip
+    base = pd.DataFrame(
+        {
+            "label": [f"{m} — {s}" for m, s in zip(table["method"], table["setting"], strict=True)],
+            "method": table["method"].astype(str).to_numpy(),
+            "setting": table["setting"].astype(str).to_numpy(),
+            "preset": _is_preset(table),
+            "seeds": pd.to_numeric(table["seeds"], errors="coerce").astype(float).to_numpy(),
+        }
+    )
     parts = []
     for symbol, _ in _ERROR_PANELS:
         part = base.copy()
@@ -221,8 +270,9 @@ def _seeds_note(seeds: pd.Series) -> str:
     return f"{counts[0]}–{counts[-1]} noise seeds per row"
 
 
-def write_error_figure(table: pd.DataFrame, path: Path, title: str, *,
-                       position_unit: str = "units") -> Path:  # fmt: skip
+def write_error_figure(
+    table: pd.DataFrame, path: Path, title: str, *, position_unit: str = "units"
+) -> Path:
     """Dot-and-whisker figure of each method setting's mean interior RMSE of ẋ (left) and ẍ
     (right) with the 95 % confidence interval of the mean, best first in each panel.
 
@@ -266,8 +316,14 @@ def write_error_figure(table: pd.DataFrame, path: Path, title: str, *,
         unit = unit.format(u=position_unit)
         panel = points[points["derivative"] == symbol]
         if panel.empty:
-            axis.text(0.5, 0.5, f"no finite RMSE of {symbol}", ha="center", va="center",
-                      transform=axis.transAxes)  # fmt: skip
+            axis.text(
+                0.5,
+                0.5,
+                f"no finite RMSE of {symbol}",
+                ha="center",
+                va="center",
+                transform=axis.transAxes,
+            )
             axis.set_yticks([])
             axis.set_xlabel(f"RMSE of {symbol} ({unit}), interior")
             continue
@@ -278,21 +334,52 @@ def write_error_figure(table: pd.DataFrame, path: Path, title: str, *,
         y = panel["rank"].to_numpy()
         best = panel.iloc[0]
         if np.isfinite(best["ci95"]):
-            axis.axvspan(max(best["mean"] - best["ci95"], 0.1 * best["mean"]),
-                         best["mean"] + best["ci95"], color="0.88", zorder=0,
-                         label="95 % CI of the best")  # fmt: skip
+            axis.axvspan(
+                max(best["mean"] - best["ci95"], 0.1 * best["mean"]),
+                best["mean"] + best["ci95"],
+                color="0.88",
+                zorder=0,
+                label="95 % CI of the best",
+            )
         for k, row in enumerate(panel.itertuples(index=False)):
             style = styles[row.method]
-            axis.errorbar(row.mean, y[k], xerr=[[lower[k]], [whisker[k]]], fmt="none",
-                          ecolor=style.color, elinewidth=1.4, capsize=2.5, zorder=2)  # fmt: skip
-            marker = {"marker": "D", "s": 46, "facecolor": style.color, "edgecolor": "black",
-                      "linewidth": 0.8} if row.preset else \
-                     {"marker": "o", "s": 34, "facecolor": "white", "edgecolor": style.color,
-                      "linewidth": 1.4}  # fmt: skip
+            axis.errorbar(
+                row.mean,
+                y[k],
+                xerr=[[lower[k]], [whisker[k]]],
+                fmt="none",
+                ecolor=style.color,
+                elinewidth=1.4,
+                capsize=2.5,
+                zorder=2,
+            )
+            marker = (
+                {
+                    "marker": "D",
+                    "s": 46,
+                    "facecolor": style.color,
+                    "edgecolor": "black",
+                    "linewidth": 0.8,
+                }
+                if row.preset
+                else {
+                    "marker": "o",
+                    "s": 34,
+                    "facecolor": "white",
+                    "edgecolor": style.color,
+                    "linewidth": 1.4,
+                }
+            )
             axis.scatter([row.mean], [y[k]], zorder=3, **marker)
-            axis.annotate(_plus_minus(row.mean, row.ci95), (row.mean + whisker[k], y[k]),
-                          xytext=(7, 0), textcoords="offset points", va="center",
-                          fontsize=6.5, color="0.25")  # fmt: skip
+            axis.annotate(
+                _plus_minus(row.mean, row.ci95),
+                (row.mean + whisker[k], y[k]),
+                xytext=(7, 0),
+                textcoords="offset points",
+                va="center",
+                fontsize=6.5,
+                color="0.25",
+            )
         axis.set_xscale("log")
         low, high = float(np.min(mean - lower)), float(np.max(mean + whisker))
         decades = math.log10(high * 1.6 / low)
@@ -308,21 +395,44 @@ def write_error_figure(table: pd.DataFrame, path: Path, title: str, *,
         axis.set_title(f"{symbol}: best first", fontsize=10)
     # one legend for both panels: the two kinds of row and the band
     handles = [
-        plt.Line2D([], [], marker="D", color="none", markerfacecolor="0.4",
-                   markeredgecolor="black", markersize=7, label="preset (bold label)"),
-        plt.Line2D([], [], marker="o", color="none", markerfacecolor="white",
-                   markeredgecolor="0.3", markersize=7, markeredgewidth=1.4,
-                   label="tuned / other setting"),
+        plt.Line2D(
+            [],
+            [],
+            marker="D",
+            color="none",
+            markerfacecolor="0.4",
+            markeredgecolor="black",
+            markersize=7,
+            label="preset (bold label)",
+        ),
+        plt.Line2D(
+            [],
+            [],
+            marker="o",
+            color="none",
+            markerfacecolor="white",
+            markeredgecolor="0.3",
+            markersize=7,
+            markeredgewidth=1.4,
+            label="tuned / other setting",
+        ),
         plt.Rectangle((0, 0), 1, 1, color="0.88", label="95 % CI of the panel's best"),
-    ]  # fmt: skip
+    ]
     fig.legend(handles=handles, loc="lower center", ncol=3, fontsize=8, frameon=False)
-    fig.suptitle(f"{title}\nmean interior RMSE over {_seeds_note(points['seeds'])}; "
-                 "whiskers: 95 % confidence interval of the mean (Student t)",
-                 fontsize=10)  # fmt: skip
+    fig.suptitle(
+        f"{title}\nmean interior RMSE over {_seeds_note(points['seeds'])}; "
+        "whiskers: 95 % confidence interval of the mean (Student t)",
+        fontsize=10,
+    )
     bottom = 0.45 / fig.get_figheight()
     if cut:
-        fig.text(0.01, 0.005, f"{cut} interval(s) reach below a tenth of the mean: lower "
-                 "whisker cut there (log axis).", fontsize=7)  # fmt: skip
+        fig.text(
+            0.01,
+            0.005,
+            f"{cut} interval(s) reach below a tenth of the mean: lower "
+            "whisker cut there (log axis).",
+            fontsize=7,
+        )
     fig.tight_layout(rect=(0, bottom, 1, 1))
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120, metadata=PNG_METADATA)
@@ -367,11 +477,22 @@ def write_online_figure(table: pd.DataFrame, path: Path, title: str) -> Path:
         for name, group in mine.groupby("method"):
             style = styles[name]
             delay = group["delay (ms)"].abs()
-            axis.scatter(delay, group["RMSE delay-compensated"], color=style.color,
-                         marker=style.marker, alpha=0.3, s=18)  # fmt: skip
+            axis.scatter(
+                delay,
+                group["RMSE delay-compensated"],
+                color=style.color,
+                marker=style.marker,
+                alpha=0.3,
+                s=18,
+            )
             front = group[group["front"]].assign(delay=delay).sort_values("delay")
-            axis.plot(front["delay"], front["RMSE delay-compensated"], marker=style.marker,
-                      label=name, **style.line())  # fmt: skip
+            axis.plot(
+                front["delay"],
+                front["RMSE delay-compensated"],
+                marker=style.marker,
+                label=name,
+                **style.line(),
+            )
         axis.set_yscale("log")
         axis.set_xlabel("|delay| (ms)")
         axis.set_ylabel(f"{order} RMSE, delay-compensated")

@@ -44,14 +44,23 @@ def _grid_tasks() -> list[tuple[str, float, float, str | None]]:
     """(noise label, level, step, scenario name or None where the grid has none) per row and
     column of the winners tables: the noise kinds, then the irregular samplings (Gaussian
     noise; only at the steps they are run at)."""
-    rows = [(kind, level, step, grid_scenario_name(kind, level, step))
-            for kind in GRID_NOISE_TYPES for level in GRID_NOISE_LEVELS
-            for step in GRID_STEPS_S]  # fmt: skip
+    rows = [
+        (kind, level, step, grid_scenario_name(kind, level, step))
+        for kind in GRID_NOISE_TYPES
+        for level in GRID_NOISE_LEVELS
+        for step in GRID_STEPS_S
+    ]
     for sampling, model in GRID_SAMPLINGS.items():
         label = f"gaussian, {model.describe()}"
-        rows += [(label, GRID_SAMPLING_LEVEL, step,
-                  grid_sampling_name(sampling, step) if step in GRID_SAMPLING_STEPS_S else None)
-                 for step in GRID_STEPS_S]  # fmt: skip
+        rows += [
+            (
+                label,
+                GRID_SAMPLING_LEVEL,
+                step,
+                grid_sampling_name(sampling, step) if step in GRID_SAMPLING_STEPS_S else None,
+            )
+            for step in GRID_STEPS_S
+        ]
     return rows
 
 
@@ -99,8 +108,15 @@ def winners(rows: pd.DataFrame, order: int = 2, region: str = "interior") -> pd.
         rows = tables.covering_whole(rows, order, keys=("method", "params"))
     records = []
     for kind, level, step, name in _grid_tasks():
-        record = {"region": region, "noise": kind, "level": level, "step_ms": step * 1e3,
-                  "task": name, "vanishing": "", "noiseless": False}  # fmt: skip
+        record = {
+            "region": region,
+            "noise": kind,
+            "level": level,
+            "step_ms": step * 1e3,
+            "task": name,
+            "vanishing": "",
+            "noiseless": False,
+        }
         if name is None:
             records.append(record)
             continue
@@ -179,8 +195,12 @@ def causal_price(rows: pd.DataFrame, order: int) -> pd.DataFrame:
     best offline one, and ``ratio`` = causal / offline: what estimating online costs. Empty
     when no causal method was run."""
     tuned_for = (rows["tuned_order"] == order).fillna(False).astype(bool)
-    scored = rows[tuned_for & (rows["metric"] == "rmse") & (rows["order"] == order)
-                  & (rows["region"] == "interior")]  # fmt: skip
+    scored = rows[
+        tuned_for
+        & (rows["metric"] == "rmse")
+        & (rows["order"] == order)
+        & (rows["region"] == "interior")
+    ]
     means = scored.groupby(["task", "method", "params"], sort=True)["value"].mean().reset_index()
     causal = set(methods.available(causal=True))
     means["causal"] = means["method"].isin(causal)
@@ -192,12 +212,19 @@ def causal_price(rows: pd.DataFrame, order: int) -> pd.DataFrame:
             continue
         best_online = online.loc[online["value"].idxmin()]
         best_offline = offline.loc[offline["value"].idxmin()]
-        records.append({
-            "noise": kind, "level": level, "step_ms": step * 1e3, "task": name,
-            "causal": best_online["method"], "causal_rmse": best_online["value"],
-            "offline": best_offline["method"], "offline_rmse": best_offline["value"],
-            "ratio": best_online["value"] / best_offline["value"],
-        })  # fmt: skip
+        records.append(
+            {
+                "noise": kind,
+                "level": level,
+                "step_ms": step * 1e3,
+                "task": name,
+                "causal": best_online["method"],
+                "causal_rmse": best_online["value"],
+                "offline": best_offline["method"],
+                "offline_rmse": best_offline["value"],
+                "ratio": best_online["value"] / best_offline["value"],
+            }
+        )
     return pd.DataFrame(records)
 
 
@@ -214,19 +241,27 @@ def write_causal_price(rows: pd.DataFrame, directory: Path) -> list[Path]:
         line = {"n": symbol, "noise": kind, "level": f"{level:g}"}
         for step in GRID_STEPS_S:
             match = group[abs(group["step_ms"] - step * 1e3) < 1e-9]
-            line[f"Ts = {step * 1e3:g} ms"] = "—" if match.empty else (
-                f"{match.iloc[0]['causal']} {match.iloc[0]['causal_rmse']:.3g} = "
-                f"{match.iloc[0]['ratio']:.3g}× {match.iloc[0]['offline']}")  # fmt: skip
+            line[f"Ts = {step * 1e3:g} ms"] = (
+                "—"
+                if match.empty
+                else (
+                    f"{match.iloc[0]['causal']} {match.iloc[0]['causal_rmse']:.3g} = "
+                    f"{match.iloc[0]['ratio']:.3g}× {match.iloc[0]['offline']}"
+                )
+            )
         shown.append(line)
     return tables.write_report(
-        directory, "causal_price", table, pd.DataFrame(shown),
+        directory,
+        "causal_price",
+        table,
+        pd.DataFrame(shown),
         "What estimating online costs: per grid task, the best causal method's interior RMSE "
         "against the best offline method's (each tuned by the oracle on seed "
         f"{TUNING_SEED}, scored on the others)",
         "Each cell: the best causal method and its RMSE, then its ratio to the best offline "
         "method (named last). Causal methods use the samples up to t only; the uniformly "
         "sampled tasks only (they take no irregular time stamps).",
-    )  # fmt: skip
+    )
 
 
 def write_winners(rows: pd.DataFrame, directory: Path) -> list[Path]:

@@ -41,8 +41,9 @@ def decimation_factor(sample_hz: float, passband_hz: float) -> int:
     """The largest factor whose anti-aliasing filter (scipy's Chebyshev I, cutoff 0.8 of the new
     Nyquist frequency) still passes ``passband_hz``: floor(0.8 fs / (2 F_p)), at least 1."""
     if not (passband_hz > 0 and sample_hz > 0):
-        raise ValueError(f"`passband_hz` and `sample_hz` must be > 0, got {passband_hz}, "
-                         f"{sample_hz}")  # fmt: skip
+        raise ValueError(
+            f"`passband_hz` and `sample_hz` must be > 0, got {passband_hz}, {sample_hz}"
+        )
     return max(1, math.floor(0.8 * sample_hz / (2 * passband_hz)))
 
 
@@ -114,7 +115,12 @@ def idim_ls(
     with np.errstate(divide="ignore"):
         relative = 100 * sigma / np.abs(estimate)
     return Identification(
-        names=tuple(names), estimate=estimate, sigma=sigma, relative_sigma_pct=relative,
-        sigma_rho=math.sqrt(sigma_rho2), covariance=covariance, condition=condition,
+        names=tuple(names),
+        estimate=estimate,
+        sigma=sigma,
+        relative_sigma_pct=relative,
+        sigma_rho=math.sqrt(sigma_rho2),
+        covariance=covariance,
+        condition=condition,
         equations=rows,
-    )  # fmt: skip
+    )

@@ -82,8 +82,12 @@ def scenario_bound(scenario, order: int, causal: bool = False) -> float:
     variance on this record, averaged over its interior (the infinite record's is not
     reached within a few seconds: tested)."""
     models = scenario.noise.models
-    if not (isinstance(scenario.signal, (GaussMarkov, BandLimited)) and len(models) == 1
-            and isinstance(models[0], Gaussian) and not scenario.sampling):  # fmt: skip
+    if not (
+        isinstance(scenario.signal, (GaussMarkov, BandLimited))
+        and len(models) == 1
+        and isinstance(models[0], Gaussian)
+        and not scenario.sampling
+    ):
         raise ValueError(
             f"scenario {scenario.name!r} has no known bound: it needs a Gauss–Markov or "
             "band-limited signal (diffbench.signals.stochastic) in white Gaussian noise, "
@@ -97,10 +101,12 @@ def scenario_bound(scenario, order: int, causal: bool = False) -> float:
 @functools.lru_cache(maxsize=64)
 def _record_bound(scenario, order: int, causal: bool) -> float:
     if order not in scenario.signal.derivative_orders:
-        raise ValueError(f"`order` must be one of {scenario.signal.derivative_orders}, got "
-                         f"{order!r}")  # fmt: skip
-    posterior = gaussian_posterior(scenario.signal, scenario.dt_s, scenario.n_samples,
-                                   scenario.noise.models[0].std, causal)  # fmt: skip
+        raise ValueError(
+            f"`order` must be one of {scenario.signal.derivative_orders}, got {order!r}"
+        )
+    posterior = gaussian_posterior(
+        scenario.signal, scenario.dt_s, scenario.n_samples, scenario.noise.models[0].std, causal
+    )
     return float(np.mean(posterior.variance[order][scenario.interior]))
 
 
@@ -129,11 +135,16 @@ def _optimal_scores(scenario, seed: int, causal: bool) -> tuple[dict, ...]:
         estimates = {order: posterior.weights[order] @ x for order in signal.derivative_orders}
     inside = realisation.interior
     return tuple(
-        {"order": order, "region": "interior", "metric": "optimal_rmse",
-         "value": float(np.sqrt(np.mean((estimate[inside]
-                                         - realisation.truth[order][inside]) ** 2)))}
+        {
+            "order": order,
+            "region": "interior",
+            "metric": "optimal_rmse",
+            "value": float(
+                np.sqrt(np.mean((estimate[inside] - realisation.truth[order][inside]) ** 2))
+            ),
+        }
         for order, estimate in estimates.items()
-    )  # fmt: skip
+    )
 
 
 def efficiency_table(cells: pd.DataFrame) -> pd.DataFrame:
@@ -157,8 +168,11 @@ def efficiency_table(cells: pd.DataFrame) -> pd.DataFrame:
 
     from diffbench import signals
 
-    rows = cells[(cells["region"] == "interior") & cells["metric"].isin(["rmse", "optimal_rmse"])
-                 & (cells["order"] >= 1)]  # fmt: skip
+    rows = cells[
+        (cells["region"] == "interior")
+        & cells["metric"].isin(["rmse", "optimal_rmse"])
+        & (cells["order"] >= 1)
+    ]
     records = []
     keys = ["task", "method", "params", "role", "order"]
     for (task, method, params, role, order), group in rows.groupby(keys, sort=True):
@@ -172,17 +186,35 @@ def efficiency_table(cells: pd.DataFrame) -> pd.DataFrame:
         optimal, mse = squares.mean(axis=0)
         covariance = np.cov(squares, rowvar=False)
         efficiency = optimal / mse
-        relative = (covariance[0, 0] / optimal**2 + covariance[1, 1] / mse**2
-                    - 2 * covariance[0, 1] / (optimal * mse)) / count  # fmt: skip
-        half = float(stats.t.ppf(0.5 + EFFICIENCY_CONFIDENCE / 2, count - 1)
-                     * efficiency * np.sqrt(max(relative, 0.0)))  # fmt: skip
+        relative = (
+            covariance[0, 0] / optimal**2
+            + covariance[1, 1] / mse**2
+            - 2 * covariance[0, 1] / (optimal * mse)
+        ) / count
+        half = float(
+            stats.t.ppf(0.5 + EFFICIENCY_CONFIDENCE / 2, count - 1)
+            * efficiency
+            * np.sqrt(max(relative, 0.0))
+        )
         causal = _is_causal(method)
         bound = scenario_bound(signals.get_scenario(task), int(order), causal)
-        records.append({"task": task, "method": method, "params": params, "role": role,
-                        "order": int(order), "seeds": count, "mse": mse,
-                        "optimal_mse": optimal, "bound": bound, "causal_bound": causal,
-                        "efficiency": efficiency, "efficiency_half_width": half,
-                        "efficiency_unpaired": bound / mse})  # fmt: skip
+        records.append(
+            {
+                "task": task,
+                "method": method,
+                "params": params,
+                "role": role,
+                "order": int(order),
+                "seeds": count,
+                "mse": mse,
+                "optimal_mse": optimal,
+                "bound": bound,
+                "causal_bound": causal,
+                "efficiency": efficiency,
+                "efficiency_half_width": half,
+                "efficiency_unpaired": bound / mse,
+            }
+        )
     return pd.DataFrame(records)
 
 
@@ -212,11 +244,13 @@ def _efficiency_columns(table: pd.DataFrame) -> dict[str, list[str]]:
     from diffbench.bench import tables
 
     return {
-        "efficiency": [tables.plus_minus(e, h) for e, h in
-                       zip(table["efficiency"], table["efficiency_half_width"], strict=True)],
+        "efficiency": [
+            tables.plus_minus(e, h)
+            for e, h in zip(table["efficiency"], table["efficiency_half_width"], strict=True)
+        ],
         "RMSE": [f"{np.sqrt(m):.4g}" for m in table["mse"]],
         "least RMSE": [f"{np.sqrt(b):.4g}" for b in table["bound"]],
-    }  # fmt: skip
+    }
 
 
 def write_efficiency_report(cells: pd.DataFrame, directory) -> list:
@@ -230,18 +264,25 @@ def write_efficiency_report(cells: pd.DataFrame, directory) -> list:
     table = tables.label_entries(table).sort_values(
         ["task", "order", "efficiency"], ascending=[True, True, False], kind="stable"
     )
-    shown = pd.DataFrame({
-        "n": [ORDER_SYMBOLS[order] for order in table["order"]],
-        "method": table["method"], "setting": table["setting"],
-        "parameters": table["parameters"], **_efficiency_columns(table),
-        "seeds": table["seeds"].astype(str),
-    })  # fmt: skip
+    shown = pd.DataFrame(
+        {
+            "n": [ORDER_SYMBOLS[order] for order in table["order"]],
+            "method": table["method"],
+            "setting": table["setting"],
+            "parameters": table["parameters"],
+            **_efficiency_columns(table),
+            "seeds": table["seeds"].astype(str),
+        }
+    )
     task = table["task"].iloc[0]
     return tables.write_report(
-        directory, "efficiency", table, shown,
+        directory,
+        "efficiency",
+        table,
+        shown,
         f"`{task}`: efficiency = least possible MSE / the method's MSE (1 = optimal)",
         EFFICIENCY_LEGEND,
-    )  # fmt: skip
+    )
 
 
 # --- the study: every method oracle-tuned on every limit scenario ----------------------------
@@ -291,8 +332,9 @@ def study_table(cells: pd.DataFrame) -> pd.DataFrame:
         return table
     table.insert(1, "criterion", [json.loads(role)["criterion"] for role in table["role"]])
     table.insert(1, "family", [task.split("-")[1] for task in table["task"]])
-    table.insert(2, "noise_std", [signals.get_scenario(t).noise.models[0].std
-                                  for t in table["task"]])  # fmt: skip
+    table.insert(
+        2, "noise_std", [signals.get_scenario(t).noise.models[0].std for t in table["task"]]
+    )
     return table
 
 
@@ -310,19 +352,29 @@ def write_study(cells: pd.DataFrame, directory) -> list:
     directory = Path(directory)
     table = study_table(cells)
     if table.empty:
-        raise ValueError("no tuned cells of the limit scenarios in the store: run "
-                         "`diffbench limit` first")  # fmt: skip
-    table = table.sort_values(["family", "order", "noise_std", "criterion", "efficiency"],
-                              ascending=[True, True, True, True, False], kind="stable")  # fmt: skip
-    shown = pd.DataFrame({
-        "signal": table["family"], "noise": [f"{v:g}" for v in table["noise_std"]],
-        "n": [ORDER_SYMBOLS[o] for o in table["order"]], "tuned by": table["criterion"],
-        "method": table["method"],
-        "bound": ["causal" if c else "smoother" for c in table["causal_bound"]],
-        **_efficiency_columns(table),
-        "parameters": [tables.readable_params(m, p) for m, p in
-                       zip(table["method"], table["params"], strict=True)],
-    })  # fmt: skip
+        raise ValueError(
+            "no tuned cells of the limit scenarios in the store: run `diffbench limit` first"
+        )
+    table = table.sort_values(
+        ["family", "order", "noise_std", "criterion", "efficiency"],
+        ascending=[True, True, True, True, False],
+        kind="stable",
+    )
+    shown = pd.DataFrame(
+        {
+            "signal": table["family"],
+            "noise": [f"{v:g}" for v in table["noise_std"]],
+            "n": [ORDER_SYMBOLS[o] for o in table["order"]],
+            "tuned by": table["criterion"],
+            "method": table["method"],
+            "bound": ["causal" if c else "smoother" for c in table["causal_bound"]],
+            **_efficiency_columns(table),
+            "parameters": [
+                tables.readable_params(m, p)
+                for m, p in zip(table["method"], table["params"], strict=True)
+            ],
+        }
+    )
     legend = (
         "Each method tuned for the derivative it is scored on (seed "
         f"{TUNING_SEED}, {BUDGET} evaluations) by the oracle (against the truth) and from the "
@@ -335,17 +387,23 @@ def write_study(cells: pd.DataFrame, directory) -> list:
         directory, "efficiency", table, shown, "Efficiency against the least possible error", legend
     )
     # offline methods against the smoother's bound, causal ones against the filter's: apart
-    best = table.loc[table.groupby(["task", "order", "causal_bound", "criterion"])[
-        "efficiency"].idxmax()]  # fmt: skip
-    best = best.sort_values(["family", "order", "noise_std", "causal_bound", "criterion"],
-                            kind="stable")  # fmt: skip
-    best_shown = pd.DataFrame({
-        "signal": best["family"], "noise": [f"{v:g}" for v in best["noise_std"]],
-        "n": [ORDER_SYMBOLS[o] for o in best["order"]],
-        "bound": ["causal" if c else "smoother" for c in best["causal_bound"]],
-        "tuned by": best["criterion"], "best method": best["method"],
-        "efficiency": _efficiency_columns(best)["efficiency"],
-    })  # fmt: skip
+    best = table.loc[
+        table.groupby(["task", "order", "causal_bound", "criterion"])["efficiency"].idxmax()
+    ]
+    best = best.sort_values(
+        ["family", "order", "noise_std", "causal_bound", "criterion"], kind="stable"
+    )
+    best_shown = pd.DataFrame(
+        {
+            "signal": best["family"],
+            "noise": [f"{v:g}" for v in best["noise_std"]],
+            "n": [ORDER_SYMBOLS[o] for o in best["order"]],
+            "bound": ["causal" if c else "smoother" for c in best["causal_bound"]],
+            "tuned by": best["criterion"],
+            "best method": best["method"],
+            "efficiency": _efficiency_columns(best)["efficiency"],
+        }
+    )
     written += tables.write_report(
         directory,
         "best",
@@ -372,10 +430,16 @@ def _efficiency_figure(table: pd.DataFrame, path, figures):
         for method, lines in part.groupby("method"):
             lines = lines.sort_values("noise_std")
             style = styles[method]
-            axis.errorbar(lines["noise_std"], lines["efficiency"],
-                          yerr=lines["efficiency_half_width"], label=method,
-                          color=style.color, linestyle=style.linestyle, marker=style.marker,
-                          capsize=2)  # fmt: skip
+            axis.errorbar(
+                lines["noise_std"],
+                lines["efficiency"],
+                yerr=lines["efficiency_half_width"],
+                label=method,
+                color=style.color,
+                linestyle=style.linestyle,
+                marker=style.marker,
+                capsize=2,
+            )
         axis.axhline(1.0, color="black", linewidth=0.8)
         axis.set_xscale("log")
         axis.set_yscale("log")
@@ -467,8 +531,7 @@ def pareto_front(name: str, realisation, max_evaluations: int = 150, seed: int =
     from diffbench import methods
     from diffbench.bench import tuning
 
-    result = tuning.tune(name, realisation, 1, "oracle", max_evaluations=max_evaluations,
-                         seed=seed)  # fmt: skip
+    result = tuning.tune(name, realisation, 1, "oracle", max_evaluations=max_evaluations, seed=seed)
     x, dt = np.asarray(realisation.x, dtype=float), realisation.dt_s
     inside = np.asarray(realisation.interior, dtype=bool)
     settings, fit, roughness, rmse = [], [], [], []
@@ -479,14 +542,20 @@ def pareto_front(name: str, realisation, max_evaluations: int = 150, seed: int =
         settings.append(params)
         fit.append(reintegration_rmse(x, estimate, dt, inside))
         roughness.append(total_variation(estimate, inside))
-        rmse.append(float(np.sqrt(np.mean((estimate[inside]
-                                           - realisation.truth[1][inside]) ** 2))))  # fmt: skip
+        rmse.append(float(np.sqrt(np.mean((estimate[inside] - realisation.truth[1][inside]) ** 2))))
     fit, roughness, rmse = np.array(fit), np.array(roughness), np.array(rmse)
     on_front = non_dominated(fit, roughness)
     members = np.flatnonzero(on_front)
-    return Front(method=name, settings=tuple(settings), fit=fit, roughness=roughness, rmse=rmse,
-                 on_front=on_front, knee=int(members[knee(fit[members], roughness[members])]),
-                 oracle=int(np.argmin(rmse)))  # fmt: skip
+    return Front(
+        method=name,
+        settings=tuple(settings),
+        fit=fit,
+        roughness=roughness,
+        rmse=rmse,
+        on_front=on_front,
+        knee=int(members[knee(fit[members], roughness[members])]),
+        oracle=int(np.argmin(rmse)),
+    )
 
 
 def write_pareto(fronts: list[Front], task: str, directory) -> list:
@@ -499,24 +568,37 @@ def write_pareto(fronts: list[Front], task: str, directory) -> list:
     from diffbench.bench import figures, tables
 
     directory = Path(directory)
-    rows = [{"task": task, "method": f.method, "settings": len(f.settings),
-             "front": int(f.on_front.sum()), "oracle_rmse": f.rmse[f.oracle],
-             "knee_rmse": f.rmse[f.knee], "knee_over_oracle": f.rmse[f.knee] / f.rmse[f.oracle],
-             "oracle_on_front": bool(f.on_front[f.oracle]),
-             "knee_params": json.dumps(f.settings[f.knee], sort_keys=True),
-             "oracle_params": json.dumps(f.settings[f.oracle], sort_keys=True)}
-            for f in fronts]  # fmt: skip
+    rows = [
+        {
+            "task": task,
+            "method": f.method,
+            "settings": len(f.settings),
+            "front": int(f.on_front.sum()),
+            "oracle_rmse": f.rmse[f.oracle],
+            "knee_rmse": f.rmse[f.knee],
+            "knee_over_oracle": f.rmse[f.knee] / f.rmse[f.oracle],
+            "oracle_on_front": bool(f.on_front[f.oracle]),
+            "knee_params": json.dumps(f.settings[f.knee], sort_keys=True),
+            "oracle_params": json.dumps(f.settings[f.oracle], sort_keys=True),
+        }
+        for f in fronts
+    ]
     table = pd.DataFrame(rows).sort_values("knee_over_oracle", kind="stable")
-    shown = pd.DataFrame({
-        "method": table["method"], "settings tried": table["settings"].astype(str),
-        "on the front": table["front"].astype(str),
-        "oracle ẋ RMSE": [f"{v:.4g}" for v in table["oracle_rmse"]],
-        "knee ẋ RMSE": [f"{v:.4g}" for v in table["knee_rmse"]],
-        "knee / oracle": [f"{v:.3f}" for v in table["knee_over_oracle"]],
-        "oracle on the front": ["yes" if v else "no" for v in table["oracle_on_front"]],
-        "knee's setting": [tables.readable_params(m, p) for m, p in
-                           zip(table["method"], table["knee_params"], strict=True)],
-    })  # fmt: skip
+    shown = pd.DataFrame(
+        {
+            "method": table["method"],
+            "settings tried": table["settings"].astype(str),
+            "on the front": table["front"].astype(str),
+            "oracle ẋ RMSE": [f"{v:.4g}" for v in table["oracle_rmse"]],
+            "knee ẋ RMSE": [f"{v:.4g}" for v in table["knee_rmse"]],
+            "knee / oracle": [f"{v:.3f}" for v in table["knee_over_oracle"]],
+            "oracle on the front": ["yes" if v else "no" for v in table["oracle_on_front"]],
+            "knee's setting": [
+                tables.readable_params(m, p)
+                for m, p in zip(table["method"], table["knee_params"], strict=True)
+            ],
+        }
+    )
     legend = (
         "Each method's settings as its oracle tuning for ẋ tries them (seed "
         f"{TUNING_SEED}), scored without the truth by how well the integral of their ẋ fits "
@@ -526,9 +608,14 @@ def write_pareto(fronts: list[Front], task: str, directory) -> list:
         "farthest below the chord between its ends in log-log coordinates (Kneedle), a "
         "data-only choice. knee / oracle: the knee's true ẋ RMSE over the best setting's."
     )
-    written = tables.write_report(directory, f"pareto_{task}", table, shown,
-                                  f"`{task}`: accuracy against smoothness, and where the knee "
-                                  "lands", legend)  # fmt: skip
+    written = tables.write_report(
+        directory,
+        f"pareto_{task}",
+        table,
+        shown,
+        f"`{task}`: accuracy against smoothness, and where the knee lands",
+        legend,
+    )
     plt = figures.pyplot()
     columns = 3
     rows_count = (len(fronts) + columns - 1) // columns
@@ -536,16 +623,35 @@ def write_pareto(fronts: list[Front], task: str, directory) -> list:
     for axis, front in zip(axes.flat, fronts, strict=False):
         axis.scatter(front.fit, front.roughness, s=8, color="0.7", label="settings tried")
         order = np.argsort(front.fit[front.on_front])
-        axis.plot(front.fit[front.on_front][order], front.roughness[front.on_front][order],
-                  color="C0", label="front")  # fmt: skip
-        axis.plot(front.fit[front.knee], front.roughness[front.knee], "*", color="C3",
-                  markersize=12, label="knee")  # fmt: skip
-        axis.plot(front.fit[front.oracle], front.roughness[front.oracle], "o",
-                  markerfacecolor="none", color="black", markersize=9, label="oracle")  # fmt: skip
+        axis.plot(
+            front.fit[front.on_front][order],
+            front.roughness[front.on_front][order],
+            color="C0",
+            label="front",
+        )
+        axis.plot(
+            front.fit[front.knee],
+            front.roughness[front.knee],
+            "*",
+            color="C3",
+            markersize=12,
+            label="knee",
+        )
+        axis.plot(
+            front.fit[front.oracle],
+            front.roughness[front.oracle],
+            "o",
+            markerfacecolor="none",
+            color="black",
+            markersize=9,
+            label="oracle",
+        )
         axis.set_xscale("log")
         axis.set_yscale("log")
-        axis.set_title(f"{front.method}: knee/oracle RMSE "
-                       f"{front.rmse[front.knee] / front.rmse[front.oracle]:.3f}")  # fmt: skip
+        axis.set_title(
+            f"{front.method}: knee/oracle RMSE "
+            f"{front.rmse[front.knee] / front.rmse[front.oracle]:.3f}"
+        )
         axis.set_xlabel("re-integration RMSE")
         axis.set_ylabel("total variation of ẋ")
     for axis in list(axes.flat)[len(fronts) :]:

@@ -79,16 +79,18 @@ def run_loop(spec: LoopSpec, method: methods.Method | None, seed: int) -> LoopRu
     t = np.arange(steps) * spec.control_dt_s
     desired, rate, _ = trajectory(t)
     noise = spec.encoder_noise_rad * np.random.default_rng(seed).standard_normal((steps, 2))
-    stream = None if method is None else method.stream(spec.control_dt_s, orders=(1,),
-                                                       channels=(2,))  # fmt: skip
+    stream = (
+        None if method is None else method.stream(spec.control_dt_s, orders=(1,), channels=(2,))
+    )
     state = np.array([*trajectory.waypoints[0], 0.0, 0.0])
     q, qd, tau = (np.full((steps, 2), np.nan) for _ in range(3))
     h = spec.control_dt_s / spec.substeps
     lost_at = None
 
     def derivative(s, torque):
-        a1, a2 = robot2r.joint_accelerations(s[0], s[1], s[2], s[3], torque[0], torque[1],
-                                             parameters, length, slope)  # fmt: skip
+        a1, a2 = robot2r.joint_accelerations(
+            s[0], s[1], s[2], s[3], torque[0], torque[1], parameters, length, slope
+        )
         return np.array([s[2], s[3], a1, a2])
 
     for k in range(steps):
@@ -132,11 +134,14 @@ def loop_scores(spec: LoopSpec, method: methods.Method, seed: int) -> list[dict]
             reference = exact.q[settled, joint] - exact.q_desired[settled, joint]
             values["tracking_rmse"] = float(np.sqrt(np.mean(error**2)))
             values["tracking_ratio"] = values["tracking_rmse"] / float(
-                np.sqrt(np.mean(reference**2)))  # fmt: skip
+                np.sqrt(np.mean(reference**2))
+            )
             difference = run.tau[settled, joint] - exact.tau[settled, joint]
             values["torque_noise_rms"] = float(np.sqrt(np.mean(difference**2)))
-        rows += [{"order": joint + 1, "region": "loop", "metric": metric, "value": value}
-                 for metric, value in values.items()]  # fmt: skip
+        rows += [
+            {"order": joint + 1, "region": "loop", "metric": metric, "value": value}
+            for metric, value in values.items()
+        ]
     return rows
 
 

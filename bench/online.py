@@ -29,8 +29,15 @@ MAX_SHIFT_S = 0.1
 PHASE_FREQUENCY_FRACTION = 1e-3
 """Where the phase delay is read, as a fraction of the Nyquist frequency."""
 
-ONLINE_METRICS = ("rmse", "rel_rmse", "delay_s", "aligned_rmse", "phase_delay_s",
-                  "noise_gain", "coverage")  # fmt: skip
+ONLINE_METRICS = (
+    "rmse",
+    "rel_rmse",
+    "delay_s",
+    "aligned_rmse",
+    "phase_delay_s",
+    "noise_gain",
+    "coverage",
+)
 
 
 def aligning_delay(
@@ -93,8 +100,10 @@ def online_scores(method: methods.Method, realisation, orders=(1, 2)) -> list[di
             values["noise_gain"] = float(np.sqrt(np.mean(difference**2))) / noise_rms
         if method.linear:
             values["phase_delay_s"] = phase_delay_s(method, dt, order)
-        rows += [{"order": order, "region": "interior", "metric": metric, "value": value}
-                 for metric, value in values.items()]  # fmt: skip
+        rows += [
+            {"order": order, "region": "interior", "metric": metric, "value": value}
+            for metric, value in values.items()
+        ]
     return rows
 
 
@@ -110,23 +119,39 @@ def sweep_settings(name: str) -> list[tuple[str, dict]]:
     if name == "backward_difference":
         return [(f"p = {p}", {"accuracy": p}) for p in (1, 2, 3, 4)]
     if name == "causal_butterworth":
-        return [(f"N = {n}, f_c = {f:g} Hz", {"order": n, "cutoff_hz": f})
-                for n in (2, 4) for f in _log_grid(5.0, 150.0, 8)]  # fmt: skip
+        return [
+            (f"N = {n}, f_c = {f:g} Hz", {"order": n, "cutoff_hz": f})
+            for n in (2, 4)
+            for f in _log_grid(5.0, 150.0, 8)
+        ]
     if name == "causal_jacobi":
-        return [(f"T = {w:g} s, δ = {fraction:g} T",
-                 {"window_s": w, "accel_window_s": 2 * w, "delay_s": round(fraction * w, 6)})
-                for w in (0.01, 0.02, 0.04, 0.08) for fraction in (0.0, 0.25, 0.5)]  # fmt: skip
+        return [
+            (
+                f"T = {w:g} s, δ = {fraction:g} T",
+                {"window_s": w, "accel_window_s": 2 * w, "delay_s": round(fraction * w, 6)},
+            )
+            for w in (0.01, 0.02, 0.04, 0.08)
+            for fraction in (0.0, 0.25, 0.5)
+        ]
     if name == "kalman_filter":
-        return [(f"m = {m}, f_b = {f:g} Hz", {"model_order": m, "bandwidth_hz": f})
-                for m in (2, 3) for f in _log_grid(2.0, 100.0, 8)]  # fmt: skip
+        return [
+            (f"m = {m}, f_b = {f:g} Hz", {"model_order": m, "bandwidth_hz": f})
+            for m in (2, 3)
+            for f in _log_grid(2.0, 100.0, 8)
+        ]
     if name == "alpha_beta_gamma":
         return [(f"T_m = {w:g} s", {"memory_s": w}) for w in _log_grid(0.002, 0.2, 8)]
     if name == "high_gain_observer":
-        return [(f"m = {m}, ε = {e:g} s", {"observer_dimension": m, "epsilon_s": e})
-                for m in (3, 4, 5) for e in _log_grid(0.001, 0.05, 8)]  # fmt: skip
+        return [
+            (f"m = {m}, ε = {e:g} s", {"observer_dimension": m, "epsilon_s": e})
+            for m in (3, 4, 5)
+            for e in _log_grid(0.001, 0.05, 8)
+        ]
     if name == "levant":
-        return [(f"n = 2, L = {v:g}", {"differentiator_order": 2, "lipschitz": v})
-                for v in _log_grid(1e5, 1e8, 8)]  # fmt: skip
+        return [
+            (f"n = 2, L = {v:g}", {"differentiator_order": 2, "lipschitz": v})
+            for v in _log_grid(1e5, 1e8, 8)
+        ]
     return [("defaults", {})]
 
 

@@ -29,8 +29,14 @@ FREQUENCIES_HZ = np.logspace(-1, np.log10(500.0), 600)
 # Fig. 3 varies one parameter at a time around kappa = mu = 12, q = 6, T = 0.2 s (the paper
 # does not say what the others are held at; we take its section III.C settings). The
 # "linear" rule serves every kappa > -1, including the figure's 0.1.
-FIG3_BASE = {"kappa": 12.0, "mu": 12.0, "q": 6, "window_s": 0.2, "accel_window_s": 0.2,
-             "rule": "linear"}  # fmt: skip
+FIG3_BASE = {
+    "kappa": 12.0,
+    "mu": 12.0,
+    "q": 6,
+    "window_s": 0.2,
+    "accel_window_s": 0.2,
+    "rule": "linear",
+}
 FIG3_SWEEPS = {
     "kappa=mu": [{"kappa": v, "mu": v} for v in (0.1, 2.0, 12.0)],
     "q": [{"q": v} for v in (2, 6, 12)],
@@ -120,14 +126,18 @@ def frequency_table(dt: float = DT, probe_hz: float = 15.0, names=None) -> pd.Da
             continue
         for order in (1, 2):
             response = method.frequency_response([probe_hz], dt, order)[0]
-            records.append({
-                "method": name, "order": order, "params": str(method.params()),
-                "cutoff_hz": cutoff_hz(method, dt, order),
-                "noise_gain": noise_gain(method, dt, order),
-                f"gain_db_at_{probe_hz:g}_hz": float(_db(response)),
-                f"ideal_db_at_{probe_hz:g}_hz": float(_db(ideal_response(probe_hz, order))),
-                "preset": source,
-            })  # fmt: skip
+            records.append(
+                {
+                    "method": name,
+                    "order": order,
+                    "params": str(method.params()),
+                    "cutoff_hz": cutoff_hz(method, dt, order),
+                    "noise_gain": noise_gain(method, dt, order),
+                    f"gain_db_at_{probe_hz:g}_hz": float(_db(response)),
+                    f"ideal_db_at_{probe_hz:g}_hz": float(_db(ideal_response(probe_hz, order))),
+                    "preset": source,
+                }
+            )
     return pd.DataFrame(records)
 
 
@@ -185,13 +195,29 @@ def _error_rows(fig, grid, first_row: int, data: pd.DataFrame, names, panels, sh
             axis.set_ylabel(f"{symbol} error\n({unit})", fontsize=8)
             axis.tick_params(labelsize=7)
             axis.grid(alpha=0.3)
-            axis.text(0.01, 0.95, f"{name}: interior RMSE {rmse[name]:.3g} {unit}",
-                      transform=axis.transAxes, va="top", fontsize=8, color=styles[name].color,
-                      fontweight="bold", bbox=_NOTE_BOX)  # fmt: skip
+            axis.text(
+                0.01,
+                0.95,
+                f"{name}: interior RMSE {rmse[name]:.3g} {unit}",
+                transform=axis.transAxes,
+                va="top",
+                fontsize=8,
+                color=styles[name].color,
+                fontweight="bold",
+                bbox=_NOTE_BOX,
+            )
             if name in scales.own:
-                axis.text(0.99, 0.05, f"off-scale: own y range ({scales.ratio[name]:.0f}x the "
-                          "median RMSE)", transform=axis.transAxes, va="bottom", ha="right",
-                          fontsize=7.5, color="firebrick", bbox=_NOTE_BOX)  # fmt: skip
+                axis.text(
+                    0.99,
+                    0.05,
+                    f"off-scale: own y range ({scales.ratio[name]:.0f}x the median RMSE)",
+                    transform=axis.transAxes,
+                    va="bottom",
+                    ha="right",
+                    fontsize=7.5,
+                    color="firebrick",
+                    bbox=_NOTE_BOX,
+                )
                 for spine in axis.spines.values():
                     spine.set_edgecolor("firebrick")
                     spine.set_linewidth(1.4)
@@ -255,9 +281,13 @@ def write_figure1(directory: Path, seed: int = 0, names=None) -> list[Path]:
     panels = (("{}_velocity_error", "ẋ", "units/s"), ("{}_acceleration_error", "ẍ", "units/s²"))
     _error_rows(fig, grid, 2, data, names, panels, share=top)
     _finish_error_figure(
-        fig, t, interior, f"Fig. 1: errors (estimate − truth) of every method at its "
-        f"paper-signal preset, paper signal, noise seed {seed}", "not scored",
-    )  # fmt: skip
+        fig,
+        t,
+        interior,
+        f"Fig. 1: errors (estimate − truth) of every method at its "
+        f"paper-signal preset, paper signal, noise seed {seed}",
+        "not scored",
+    )
     return [csv, figures.save_figure(fig, directory / "fig1_errors.png", tight=False)]
 
 
@@ -272,8 +302,9 @@ def write_figure2(directory: Path, names=None) -> list[Path]:
     frequency = data["frequency_hz"]
     plt = figures.pyplot()
     fig, (absolute, relative) = plt.subplots(2, 1, figsize=(8, 9), height_ratios=[1.3, 1])
-    absolute.semilogx(frequency, data["ideal_db"], color="black", lw=2.2, alpha=0.35,
-                      label="ideal s²")  # fmt: skip
+    absolute.semilogx(
+        frequency, data["ideal_db"], color="black", lw=2.2, alpha=0.35, label="ideal s²"
+    )
     relative.axhline(0.0, color="black", lw=2.2, alpha=0.35)
     relative.axhline(-3.0, color="0.4", lw=0.8, ls=":", label="-3 dB")
     for name in names:
@@ -281,26 +312,35 @@ def write_figure2(directory: Path, names=None) -> list[Path]:
         absolute.semilogx(frequency, data[f"{name}_db"], lw=1.3, label=name, **style)
         relative.semilogx(frequency, data[f"{name}_db"] - data["ideal_db"], lw=1.3, **style)
     if "jacobi_db" in data:
-        exact15 = float(_db(methods.preset("jacobi", "paper-signal").frequency_response(
-            [15.0], DT, 2))[0])  # fmt: skip
+        exact15 = float(
+            _db(methods.preset("jacobi", "paper-signal").frequency_response([15.0], DT, 2))[0]
+        )
         ideal15 = float(_db(ideal_response(15.0, 2)))
         absolute.plot([15.0], [exact15], "ko", ms=5)
-        absolute.annotate(f"jacobi at 15 Hz: {exact15:.2f} dB\n(ideal {ideal15:.2f} dB; paper: "
-                          "78.5 dB)", (15.0, exact15), (0.3, 150), fontsize=8,
-                          arrowprops={"arrowstyle": "->"})  # fmt: skip
+        absolute.annotate(
+            f"jacobi at 15 Hz: {exact15:.2f} dB\n(ideal {ideal15:.2f} dB; paper: 78.5 dB)",
+            (15.0, exact15),
+            (0.3, 150),
+            fontsize=8,
+            arrowprops={"arrowstyle": "->"},
+        )
     absolute.set_ylim(-250, 200)
     absolute.set_ylabel("|H(f)| (dB re 1 s⁻²)")
     absolute.set_xlabel("frequency (Hz)")
-    absolute.set_title("|H| of the second-order estimate, each method at its paper-signal "
-                       "preset (flat 160 dB under its peak: below, rounding)",
-                       fontsize=9)  # fmt: skip
+    absolute.set_title(
+        "|H| of the second-order estimate, each method at its paper-signal "
+        "preset (flat 160 dB under its peak: below, rounding)",
+        fontsize=9,
+    )
     absolute.legend(fontsize=8, loc="lower left", ncol=2)
     relative.set_ylim(-60, 20)
     relative.set_xlim(2.0, 600.0)
     relative.set_ylabel("|H(f)| / |(i2πf)²| (dB)")
     relative.set_xlabel("frequency (Hz)")
-    relative.set_title("relative to the ideal (same curves, 2-500 Hz): 0 dB passes, below -3 dB "
-                       "cuts off", fontsize=9)  # fmt: skip
+    relative.set_title(
+        "relative to the ideal (same curves, 2-500 Hz): 0 dB passes, below -3 dB cuts off",
+        fontsize=9,
+    )
     relative.legend(fontsize=8, loc="lower left")
     for axis in (absolute, relative):
         axis.grid(alpha=0.3, which="both")
@@ -338,13 +378,16 @@ def write_frequency_table(directory: Path, names=None) -> list[Path]:
 
     csv = tables.write_csv(directory / "frequency.csv", frequency_table(names=names))
     stored = pd.read_csv(csv)
-    shown = pd.DataFrame({
-        "method": stored["method"], "n": stored["order"].astype(str),
-        "cutoff (Hz)": [f"{v:.2f}" for v in stored["cutoff_hz"]],
-        "noise gain": [f"{v:.4g}" for v in stored["noise_gain"]],
-        "gain at 15 Hz (dB)": [f"{v:.3f}" for v in stored["gain_db_at_15_hz"]],
-        "ideal (dB)": [f"{v:.3f}" for v in stored["ideal_db_at_15_hz"]],
-    })  # fmt: skip
+    shown = pd.DataFrame(
+        {
+            "method": stored["method"],
+            "n": stored["order"].astype(str),
+            "cutoff (Hz)": [f"{v:.2f}" for v in stored["cutoff_hz"]],
+            "noise gain": [f"{v:.4g}" for v in stored["noise_gain"]],
+            "gain at 15 Hz (dB)": [f"{v:.3f}" for v in stored["gain_db_at_15_hz"]],
+            "ideal (dB)": [f"{v:.3f}" for v in stored["ideal_db_at_15_hz"]],
+        }
+    )
     text = (
         "# Frequency-domain scores at the paper-signal presets (Ts = 1 ms)\n\n"
         f"{tables.markdown_table(shown)}\n\n"
@@ -392,15 +435,23 @@ def write_figure5(directory: Path, scenario_name: str = "robot-sim", seed: int =
     csv = directory / "fig5_robot_derivatives.csv"
     figure5_data(scenario_name, seed).to_csv(csv, index=False)
     data = pd.read_csv(csv)
-    names = [name[len("qd1_"):] for name in _methods_in(data.columns, "_error")
-             if name.startswith("qd1_")]  # fmt: skip
+    names = [
+        name[len("qd1_") :]
+        for name in _methods_in(data.columns, "_error")
+        if name.startswith("qd1_")
+    ]
     fig, grid = _error_figure(len(names), header_rows=2)
     t, interior = data["t_s"].to_numpy(), data["interior"].to_numpy(dtype=bool)
     top = fig.add_subplot(grid[0, :])
     _shade_outside(top, t, interior)
     quantisation = float(np.max(np.abs(data["q1_measured"] - data["q1_true"])))
-    top.plot(t, data["q1_true"], color="black", lw=1.2,
-             label=f"true (the measured q1 is within {quantisation:.1e} rad of it)")  # fmt: skip
+    top.plot(
+        t,
+        data["q1_true"],
+        color="black",
+        lw=1.2,
+        label=f"true (the measured q1 is within {quantisation:.1e} rad of it)",
+    )
     top.legend(loc="upper left", fontsize=8)
     top.set_ylabel("q1 (rad)")
     top.set_xlabel("time (s)", fontsize=8)
@@ -410,9 +461,13 @@ def write_figure5(directory: Path, scenario_name: str = "robot-sim", seed: int =
     panels = (("qd1_{}_error", "q̇1", "rad/s"), ("qdd1_{}_error", "q̈1", "rad/s²"))
     _error_rows(fig, grid, 2, data, names, panels, share=top)
     _finish_error_figure(
-        fig, t, interior, f"Fig. 5: joint 1 of `{scenario_name}`, errors (estimate − truth) of "
-        f"every method at its robot preset, noise seed {seed}", "not used",
-    )  # fmt: skip
+        fig,
+        t,
+        interior,
+        f"Fig. 5: joint 1 of `{scenario_name}`, errors (estimate − truth) of "
+        f"every method at its robot preset, noise seed {seed}",
+        "not used",
+    )
     return [csv, figures.save_figure(fig, directory / "fig5_robot_derivatives.png", tight=False)]
 
 
@@ -505,8 +560,9 @@ def write_error_profile(
     ):
         _shade_outside(axis, t, interior)
         for name in names:
-            axis.plot(t, data[f"{name}_{label}_rms_error"], lw=0.9, label=name,
-                      **styles[name].line())  # fmt: skip
+            axis.plot(
+                t, data[f"{name}_{label}_rms_error"], lw=0.9, label=name, **styles[name].line()
+            )
         axis.set_yscale("log")
         axis.set_ylabel(f"RMS error of {symbol} ({unit})")
         axis.grid(True, which="major", alpha=0.3)

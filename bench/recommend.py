@@ -46,9 +46,16 @@ SCORING_SURROGATES = 4
 """Other surrogates the tuned setting is scored on: the predicted RMSE and its spread."""
 
 COLUMNS = (
-    "order", "rank", "method", "params", "predicted_rmse", "spread", "coverage", "package",
+    "order",
+    "rank",
+    "method",
+    "params",
+    "predicted_rmse",
+    "spread",
+    "coverage",
+    "package",
     "seconds",
-)  # fmt: skip
+)
 
 
 @dataclass(frozen=True)
@@ -251,19 +258,21 @@ def write_recommendation(record, results, out: Path) -> list[Path]:
         frames.append(frame)
     table = pd.concat(frames, ignore_index=True)
     table.to_csv(out / "ranking.csv", index=False)
-    shown = pd.DataFrame({
-        "channel": table["channel"],
-        "n": table["order"].map({1: "ẋ", 2: "ẍ"}),
-        "rank": [f"{r:.0f}" if np.isfinite(r) else "—" for r in table["rank"]],
-        "method": table["method"],
-        "settings": [_settings(p) for p in table["params"]],
-        "predicted RMSE": [
-            f"{m:.4g} ± {s:.2g}" if np.isfinite(m) else "—"
-            for m, s in zip(table["predicted_rmse"], table["spread"], strict=True)
-        ],
-        "coverage": [f"{c:.3f}" if np.isfinite(c) else "—" for c in table["coverage"]],
-        "package": table["package"],
-    })  # fmt: skip
+    shown = pd.DataFrame(
+        {
+            "channel": table["channel"],
+            "n": table["order"].map({1: "ẋ", 2: "ẍ"}),
+            "rank": [f"{r:.0f}" if np.isfinite(r) else "—" for r in table["rank"]],
+            "method": table["method"],
+            "settings": [_settings(p) for p in table["params"]],
+            "predicted RMSE": [
+                f"{m:.4g} ± {s:.2g}" if np.isfinite(m) else "—"
+                for m, s in zip(table["predicted_rmse"], table["spread"], strict=True)
+            ],
+            "coverage": [f"{c:.3f}" if np.isfinite(c) else "—" for c in table["coverage"]],
+            "package": table["package"],
+        }
+    )
     note = (
         "Each method tuned on surrogate records with the record's spectrum and a known truth "
         f"({TUNING_SURROGATES}), scored on {SCORING_SURROGATES} others: the predicted RMSE "
@@ -272,8 +281,9 @@ def write_recommendation(record, results, out: Path) -> list[Path]:
         "method estimates, often many times worse than its middle) are written but flagged 0: "
         "no error is predicted for them."
     )
-    (out / "ranking.md").write_text("\n".join(header) + "\n\n" + markdown_table(shown)
-                                    + "\n\n" + note + "\n")  # fmt: skip
+    (out / "ranking.md").write_text(
+        "\n".join(header) + "\n\n" + markdown_table(shown) + "\n\n" + note + "\n"
+    )
     time = record.t if record.t is not None else np.arange(record.x.shape[0]) * record.dt_s
     columns = {"time_s": time}
     scored = _scored(record)
@@ -287,8 +297,7 @@ def write_recommendation(record, results, out: Path) -> list[Path]:
             columns[f"{channel}_d{order}_valid"] = (estimate.valid[order] & scored).astype(np.int8)
     pd.DataFrame(columns).to_csv(out / "derivatives.csv", index=False)  # exact round trip
     _figure(record, results, time, out / "recommend.png")
-    return [out / "ranking.md", out / "ranking.csv", out / "derivatives.csv",
-            out / "recommend.png"]  # fmt: skip
+    return [out / "ranking.md", out / "ranking.csv", out / "derivatives.csv", out / "recommend.png"]
 
 
 def _scored(record) -> np.ndarray:
@@ -306,8 +315,9 @@ def _scored(record) -> np.ndarray:
 def _settings(params) -> str:
     if not isinstance(params, dict):
         return str(params)
-    return ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
-                     for k, v in params.items())  # fmt: skip
+    return ", ".join(
+        f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in params.items()
+    )
 
 
 def _figure(record, results, time, path: Path) -> None:
@@ -332,10 +342,13 @@ def _figure(record, results, time, path: Path) -> None:
         axes[row, 1].legend()
         spectrum = recommendation.spectrum
         axes[row, 2].loglog(spectrum.frequency_hz[1:], spectrum.power[1:], linewidth=0.7)
-        axes[row, 2].axhline(spectrum.noise_floor, color="k", linestyle="--",
-                             label=f"noise floor (std {recommendation.noise_std:.3g})")  # fmt: skip
-        axes[row, 2].axvline(spectrum.band_hz, color="r",
-                             label=f"band {spectrum.band_hz:.3g} Hz")  # fmt: skip
+        axes[row, 2].axhline(
+            spectrum.noise_floor,
+            color="k",
+            linestyle="--",
+            label=f"noise floor (std {recommendation.noise_std:.3g})",
+        )
+        axes[row, 2].axvline(spectrum.band_hz, color="r", label=f"band {spectrum.band_hz:.3g} Hz")
         scaled = f" of {channel} / {recommendation.scale:.3g}" if recommendation.scale != 1 else ""
         axes[row, 2].set(xlabel="f [Hz]", ylabel=f"periodogram{scaled}", title="spectrum")
         axes[row, 2].legend()
@@ -345,8 +358,13 @@ def _figure(record, results, time, path: Path) -> None:
 
 
 VALIDATION_METHODS = (
-    "spectral", "savitzky_golay", "butterworth", "kalman", "gaussian_kernel", "finite_difference",
-)  # fmt: skip
+    "spectral",
+    "savitzky_golay",
+    "butterworth",
+    "kalman",
+    "gaussian_kernel",
+    "finite_difference",
+)
 """The methods the validation recommends among by default: the native ones that tune in
 seconds (the Gaussian processes, Jacobi and the peers take minutes per record)."""
 
@@ -368,44 +386,69 @@ def validate(scenario: str, names=VALIDATION_METHODS, seed: int = 0, max_evaluat
         raise ValueError(f"{scenario}: irregular time stamps are not validated yet")
     start = time.perf_counter()
     # the samples to be scored are the user's to say (not the truth): the scenario's interior
-    advice = recommend(realisation.x, realisation.dt_s, list(names), (1, 2), seed,
-                       max_evaluations, scored=realisation.interior)  # fmt: skip
+    advice = recommend(
+        realisation.x,
+        realisation.dt_s,
+        list(names),
+        (1, 2),
+        seed,
+        max_evaluations,
+        scored=realisation.interior,
+    )
     guess_hz = advice.spectrum.band_hz
     rows = []
     for order in (1, 2):
         name, params = advice.best(order)
-        predicted = advice.table[(advice.table["order"] == order)
-                                 & (advice.table["method"] == name)].iloc[0]  # fmt: skip
+        predicted = advice.table[
+            (advice.table["order"] == order) & (advice.table["method"] == name)
+        ].iloc[0]
         oracle, by_pynumdiff = {}, {}
         for candidate in names:
             try:
-                oracle[candidate] = tune(candidate, realisation, order, "oracle",
-                                         max_evaluations=max_evaluations).loss  # fmt: skip
+                oracle[candidate] = tune(
+                    candidate, realisation, order, "oracle", max_evaluations=max_evaluations
+                ).loss
             except ValueError:
                 continue
             if guess_hz > 0:
                 try:
-                    by_pynumdiff[candidate] = tune(candidate, realisation, order, "pynumdiff",
-                                                   cutoff_hz=guess_hz,
-                                                   max_evaluations=max_evaluations)  # fmt: skip
+                    by_pynumdiff[candidate] = tune(
+                        candidate,
+                        realisation,
+                        order,
+                        "pynumdiff",
+                        cutoff_hz=guess_hz,
+                        max_evaluations=max_evaluations,
+                    )
                 except ValueError:
                     pass
         best = min(oracle, key=oracle.get)
         true = _true_rmse(realisation, name, params, order)
         row = {
-            "scenario": scenario, "seed": seed, "order": order,
-            "band_hz": guess_hz, "noise_std": advice.noise_std,
-            "recommended": name, "params": _settings(params),
-            "predicted_rmse": predicted["predicted_rmse"], "true_rmse": true,
-            "oracle_best": best, "oracle_rmse": oracle[best],
-            "pynumdiff_choice": "", "pynumdiff_params": "", "pynumdiff_rmse": math.nan,
-        }  # fmt: skip
+            "scenario": scenario,
+            "seed": seed,
+            "order": order,
+            "band_hz": guess_hz,
+            "noise_std": advice.noise_std,
+            "recommended": name,
+            "params": _settings(params),
+            "predicted_rmse": predicted["predicted_rmse"],
+            "true_rmse": true,
+            "oracle_best": best,
+            "oracle_rmse": oracle[best],
+            "pynumdiff_choice": "",
+            "pynumdiff_params": "",
+            "pynumdiff_rmse": math.nan,
+        }
         finite = {k: v for k, v in by_pynumdiff.items() if math.isfinite(v.loss)}
         if finite:
             choice = min(finite, key=lambda k: finite[k].loss)
             chosen = _true_rmse(realisation, choice, finite[choice].params, order)
-            row.update(pynumdiff_choice=choice, pynumdiff_params=_settings(finite[choice].params),
-                       pynumdiff_rmse=chosen)  # fmt: skip
+            row.update(
+                pynumdiff_choice=choice,
+                pynumdiff_params=_settings(finite[choice].params),
+                pynumdiff_rmse=chosen,
+            )
         row["seconds"] = time.perf_counter() - start
         rows.append(with_best_known(row))
     return rows
@@ -418,8 +461,12 @@ def with_best_known(row: dict) -> dict:
     ratios ``ratio`` and ``pynumdiff_ratio`` to it (never below 1)."""
     known = [row["oracle_rmse"], row["true_rmse"], row.get("pynumdiff_rmse", math.nan)]
     best = min(value for value in known if math.isfinite(value))
-    return {**row, "best_rmse": best, "ratio": row["true_rmse"] / best,
-            "pynumdiff_ratio": row.get("pynumdiff_rmse", math.nan) / best}  # fmt: skip
+    return {
+        **row,
+        "best_rmse": best,
+        "ratio": row["true_rmse"] / best,
+        "pynumdiff_ratio": row.get("pynumdiff_rmse", math.nan) / best,
+    }
 
 
 def _true_rmse(realisation, name: str, params: dict, order: int) -> float:
@@ -453,17 +500,22 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
                 f"{peer.max():.3g} ({group.loc[peer.idxmax(), 'scenario']}), over {len(peer)}"
             )
         lines.append(line)
-    shown = pd.DataFrame({
-        "scenario": frame["scenario"], "n": frame["order"].map({1: "ẋ", 2: "ẍ"}),
-        "band (Hz)": frame["band_hz"].map("{:.3g}".format),
-        "noise std": frame["noise_std"].map("{:.3g}".format),
-        "recommended": frame["recommended"], "settings": frame["params"],
-        "predicted": frame["predicted_rmse"].map("{:.4g}".format),
-        "true": frame["true_rmse"].map("{:.4g}".format),
-        "oracle-tuned best": frame["oracle_best"] + " "
-        + frame["oracle_rmse"].map("{:.4g}".format),
-        "ratio": frame["ratio"].map("{:.3g}".format),
-    })  # fmt: skip
+    shown = pd.DataFrame(
+        {
+            "scenario": frame["scenario"],
+            "n": frame["order"].map({1: "ẋ", 2: "ẍ"}),
+            "band (Hz)": frame["band_hz"].map("{:.3g}".format),
+            "noise std": frame["noise_std"].map("{:.3g}".format),
+            "recommended": frame["recommended"],
+            "settings": frame["params"],
+            "predicted": frame["predicted_rmse"].map("{:.4g}".format),
+            "true": frame["true_rmse"].map("{:.4g}".format),
+            "oracle-tuned best": frame["oracle_best"]
+            + " "
+            + frame["oracle_rmse"].map("{:.4g}".format),
+            "ratio": frame["ratio"].map("{:.3g}".format),
+        }
+    )
     # with_best_known gave every row its pynumdiff_ratio (NaN where PyNumDiff tuned nothing)
     shown["PyNumDiff's choice"] = [
         f"{choice} {rmse:.4g}" if isinstance(choice, str) and choice else "—"
@@ -482,6 +534,7 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
         "read off the periodogram as the cutoff guess), the one of lowest loss, its true RMSE "
         "and ratio to the same best known. Methods offered: " + ", ".join(names) + "."
     )
-    (out / "validation.md").write_text("\n".join(lines) + "\n\n" + markdown_table(shown)
-                                       + "\n\n" + note + "\n")  # fmt: skip
+    (out / "validation.md").write_text(
+        "\n".join(lines) + "\n\n" + markdown_table(shown) + "\n\n" + note + "\n"
+    )
     return [out / "validation.md", out / "validation.csv"]

@@ -158,16 +158,28 @@ def tuning_table(cells: pd.DataFrame, tunings: pd.DataFrame) -> pd.DataFrame:
     seconds each tuning took, the no-truth / oracle ratio, and (whole record) the least
     coverage of the record among these settings."""
     chosen = cells[cells["metric"].isin(["rmse", "coverage"])]
-    group_keys = ["method", "origin", "criterion", "tuned_order", "tuning_seeds", "tuned_region",
-                  "order", "region", "metric"]  # fmt: skip
+    group_keys = [
+        "method",
+        "origin",
+        "criterion",
+        "tuned_order",
+        "tuning_seeds",
+        "tuned_region",
+        "order",
+        "region",
+        "metric",
+    ]
     means = chosen.groupby(group_keys, dropna=False)["value"].mean()
     least = chosen.groupby(group_keys, dropna=False)["value"].min()
     records = []
     for (method, order), group in tunings.groupby(["method", "order"], sort=True):
         order = int(order)
         for region in ("interior", "valid"):
-            record = {"method": method, "n": ORDER_SYMBOLS[order],
-                      "scored on": REGION_HEADINGS[region]}  # fmt: skip
+            record = {
+                "method": method,
+                "n": ORDER_SYMBOLS[order],
+                "scored on": REGION_HEADINGS[region],
+            }
             presets = chosen[
                 (chosen["method"] == method)
                 & (chosen["origin"] == "preset")
@@ -205,8 +217,9 @@ def tuning_report(cells: pd.DataFrame, tunings: pd.DataFrame, directory: Path) -
     seconds each tuning took in the ``.csv`` only (they change from run to run and machine to
     machine, so the tracked ``.md`` stays the same when a rerun reproduces the numbers)."""
     frame = tuning_table(cells, tunings)
-    frame = frame[[c for c in frame.columns if c in ("method", "n", "scored on")
-                   or frame[c].notna().any()]]  # fmt: skip
+    frame = frame[
+        [c for c in frame.columns if c in ("method", "n", "scored on") or frame[c].notna().any()]
+    ]
     shown = frame[[c for c in frame.columns if not c.endswith(" s")]].copy()
     for column in shown.columns[3:]:
         shown[column] = [tables.nan_to_dash(v, 4) for v in frame[column]]
@@ -408,22 +421,27 @@ def dfki_report(cells: pd.DataFrame, directory: Path, spec) -> list[Path]:
         "velocity is the backward difference of the recorded positions.\n\n"
         f"{tables.legend(cells)}",
     )
-    settings = cells[(cells["variant"] == NESTED_VARIANT)
-                     & cells["metric"].str.startswith("setting.")]  # fmt: skip
+    settings = cells[
+        (cells["variant"] == NESTED_VARIANT) & cells["metric"].str.startswith("setting.")
+    ]
     rows = []
     inner = cells[cells["metric"] == "inner_raw_torque_rmse"]
     for (method, seed), group in settings.groupby(["method", "seed"], sort=True):
-        values = {m.removeprefix("setting."): v for m, v in zip(group["metric"], group["value"],
-                                                                 strict=True)}  # fmt: skip
+        values = {
+            m.removeprefix("setting."): v
+            for m, v in zip(group["metric"], group["value"], strict=True)
+        }
         loss = inner[(inner["method"] == method) & (inner["seed"] == seed)]["value"]
-        rows.append({
-            "method": method,
-            "held-out run": spec.records[int(seed)],
-            "chosen setting": tables.readable_params(
-                method, json.dumps(setting_of(method, values))
-            ),
-            "inner LORO τ RMSE (N·m)": float(loss.iloc[0]) if len(loss) else float("nan"),
-        })  # fmt: skip
+        rows.append(
+            {
+                "method": method,
+                "held-out run": spec.records[int(seed)],
+                "chosen setting": tables.readable_params(
+                    method, json.dumps(setting_of(method, values))
+                ),
+                "inner LORO τ RMSE (N·m)": float(loss.iloc[0]) if len(loss) else float("nan"),
+            }
+        )
     if rows:
         frame = pd.DataFrame(rows)
         column = "inner LORO τ RMSE (N·m)"
@@ -484,14 +502,19 @@ def online_table(cells: pd.DataFrame) -> pd.DataFrame:
         mine = summary[summary["order"] == order].set_index([*tables.ENTRY_KEYS, "metric"])
         for _, entry in labelled.iterrows():
             key = (entry["method"], entry["params"], entry["role"])
-            record = {"method": entry["method"], "setting": entry["setting"].removeprefix(
-                "variant: "), "order": ORDER_SYMBOLS[order]}  # fmt: skip
+            record = {
+                "method": entry["method"],
+                "setting": entry["setting"].removeprefix("variant: "),
+                "order": ORDER_SYMBOLS[order],
+            }
             for label, metric, scale in ONLINE_COLUMNS:
                 row = (*key, metric)
-                record[label] = float(mine.loc[row, "mean"]) * scale if row in mine.index else (
-                    float("nan"))  # fmt: skip
-            record["seeds"] = int(mine.loc[(*key, "rmse"), "seeds"]) if (*key, "rmse") in (
-                mine.index) else 0  # fmt: skip
+                record[label] = (
+                    float(mine.loc[row, "mean"]) * scale if row in mine.index else (float("nan"))
+                )
+            record["seeds"] = (
+                int(mine.loc[(*key, "rmse"), "seeds"]) if (*key, "rmse") in (mine.index) else 0
+            )
             records.append(record)
     table = pd.DataFrame(records)
     table["front"] = False
@@ -523,28 +546,40 @@ def online_report(task: str, description: str, cells: pd.DataFrame, directory: P
     table = online_table(cells)
     seeds = _seeds_phrase(cells)
     written = tables.write_report(
-        directory, "sweep", table, _online_shown(table),
+        directory,
+        "sweep",
+        table,
+        _online_shown(table),
         f"`{task}`: every setting of each causal method (means over {seeds})",
         f"{description}\n\n{ONLINE_LEGEND}",
-    )  # fmt: skip
+    )
     front = table[table["front"]].sort_values(["order", "method", "delay (ms)"])
     written += tables.write_report(
-        directory, "front", front, _online_shown(front),
+        directory,
+        "front",
+        front,
+        _online_shown(front),
         f"`{task}`: the error-against-delay front of each causal method (means over {seeds})",
         ONLINE_LEGEND,
-    )  # fmt: skip
+    )
     scored = table.dropna(subset=["RMSE at the time"])
     best = scored.loc[scored.groupby(["order", "method"])["RMSE at the time"].idxmin()]
     best = best.sort_values(["order", "RMSE at the time"])
     written += tables.write_report(
-        directory, "best", best, _online_shown(best),
+        directory,
+        "best",
+        best,
+        _online_shown(best),
         f"`{task}`: each causal method at its setting of least error at the time of the "
         f"estimate (means over {seeds})",
         "The online choice: a controller acts on the estimate when it is made, so its error "
         f"then is what counts. {ONLINE_LEGEND}",
-    )  # fmt: skip
-    written.append(write_online_figure(table, directory / "error_vs_delay.png",
-                                       f"`{task}`: error against delay ({seeds})"))  # fmt: skip
+    )
+    written.append(
+        write_online_figure(
+            table, directory / "error_vs_delay.png", f"`{task}`: error against delay ({seeds})"
+        )
+    )
     return written
 
 
@@ -576,12 +611,16 @@ def loop_table(cells: pd.DataFrame) -> pd.DataFrame:
     records = []
     for _, entry in labelled.iterrows():
         key = (entry["method"], entry["params"], entry["role"])
-        mine = cells[(cells["method"] == key[0]) & (cells["params"] == key[1])
-                     & (cells["role"] == key[2])]  # fmt: skip
+        mine = cells[
+            (cells["method"] == key[0]) & (cells["params"] == key[1]) & (cells["role"] == key[2])
+        ]
         stable = mine[(mine["metric"] == "stable") & (mine["order"] == 1)]
         lost = mine[(mine["metric"] == "lost_at_s") & (mine["order"] == 1)]["value"].dropna()
-        record = {"method": entry["method"], "setting": entry["setting"].removeprefix(
-            "variant: "), "seeds": len(stable)}  # fmt: skip
+        record = {
+            "method": entry["method"],
+            "setting": entry["setting"].removeprefix("variant: "),
+            "seeds": len(stable),
+        }
         if lost.empty:
             record["loop"] = "stable"
         else:
@@ -604,28 +643,46 @@ def loop_report(task: str, description: str, cells: pd.DataFrame, directory: Pat
     table = loop_table(cells)
     seeds = _seeds_phrase(cells)
     written = tables.write_report(
-        directory, "loop", table, _loop_shown(table),
+        directory,
+        "loop",
+        table,
+        _loop_shown(table),
         f"`{task}`: every setting of each causal method in the loop ({seeds})",
         f"{description}\n\n{LOOP_LEGEND}",
-    )  # fmt: skip
+    )
     best = []
     for name, group in table.groupby("method", sort=True):
         limit = 1 + LOOP_TRACKING_MARGIN
-        usable = group[(group["loop"] == "stable") & (group["q₁ tracking / exact"] <= limit)
-                       & (group["q₂ tracking / exact"] <= limit)]  # fmt: skip
+        usable = group[
+            (group["loop"] == "stable")
+            & (group["q₁ tracking / exact"] <= limit)
+            & (group["q₂ tracking / exact"] <= limit)
+        ]
         if len(usable):
             best.append(usable.loc[usable["τ₁ noise (N·m)"].idxmin()])
         else:
             stable = int((group["loop"] == "stable").sum())
-            best.append(pd.Series({"method": name, "setting": "—", "seeds": group["seeds"].max(),
-                                   "loop": f"no usable setting: {stable} of {len(group)} "
-                                   "settings stable, none tracking within "
-                                   f"{LOOP_TRACKING_MARGIN * 100:g} %" if stable else
-                                   f"unstable at all {len(group)} settings"}))  # fmt: skip
+            best.append(
+                pd.Series(
+                    {
+                        "method": name,
+                        "setting": "—",
+                        "seeds": group["seeds"].max(),
+                        "loop": f"no usable setting: {stable} of {len(group)} "
+                        "settings stable, none tracking within "
+                        f"{LOOP_TRACKING_MARGIN * 100:g} %"
+                        if stable
+                        else f"unstable at all {len(group)} settings",
+                    }
+                )
+            )
     best = pd.DataFrame(best).sort_values("τ₁ noise (N·m)", na_position="last")
     written += tables.write_report(
-        directory, "loop_best", best, _loop_shown(best),
+        directory,
+        "loop_best",
+        best,
+        _loop_shown(best),
         f"`{task}`: each causal method at its best setting in the loop ({seeds})",
         LOOP_LEGEND,
-    )  # fmt: skip
+    )
     return written

@@ -89,13 +89,14 @@ def identify(method: Method, realisation, scenario) -> tuple[Identification, tup
     Coulomb (2/π)·atan(α q̇), α = ``scenario.coulomb_slope``); Y and W are decimated together
     with F_p = 5 × the closed-loop bandwidth.
     """
-    q, qd, qdd, chosen, estimate = estimate_states(method, realisation.q, realisation.dt_s,
-                                                   realisation.interior)  # fmt: skip
+    q, qd, qdd, chosen, estimate = estimate_states(
+        method, realisation.q, realisation.dt_s, realisation.interior
+    )
     observation = robot2r.regressor(q, qd, qdd, scenario.link1_length_m, scenario.coulomb_slope)
-    factor = decimation_factor(1 / realisation.dt_s,
-                               PASSBAND_PER_BANDWIDTH * scenario.bandwidth_hz)  # fmt: skip
-    result = idim_ls(observation, realisation.tau[chosen], robot2r.PARAMETER_NAMES, factor,
-                     EDGE_SAMPLES)  # fmt: skip
+    factor = decimation_factor(1 / realisation.dt_s, PASSBAND_PER_BANDWIDTH * scenario.bandwidth_hz)
+    result = idim_ls(
+        observation, realisation.tau[chosen], robot2r.PARAMETER_NAMES, factor, EDGE_SAMPLES
+    )
     return result, (q, qd, qdd, chosen, estimate)
 
 
@@ -106,18 +107,24 @@ def well_excited(scenario) -> tuple[bool, ...]:
     applied once per scenario so that every method is scored on the same set."""
     realisation = scenario.realise(0)
     truth, inside = realisation.truth, realisation.interior
-    observation = robot2r.regressor(truth.q[inside], truth.qd[inside], truth.qdd[inside],
-                                    scenario.link1_length_m, scenario.coulomb_slope)  # fmt: skip
-    factor = decimation_factor(1 / realisation.dt_s,
-                               PASSBAND_PER_BANDWIDTH * scenario.bandwidth_hz)  # fmt: skip
-    result = idim_ls(observation, realisation.tau[inside], robot2r.PARAMETER_NAMES, factor,
-                     EDGE_SAMPLES)  # fmt: skip
+    observation = robot2r.regressor(
+        truth.q[inside],
+        truth.qd[inside],
+        truth.qdd[inside],
+        scenario.link1_length_m,
+        scenario.coulomb_slope,
+    )
+    factor = decimation_factor(1 / realisation.dt_s, PASSBAND_PER_BANDWIDTH * scenario.bandwidth_hz)
+    result = idim_ls(
+        observation, realisation.tau[inside], robot2r.PARAMETER_NAMES, factor, EDGE_SAMPLES
+    )
     return tuple(bool(v) for v in result.relative_sigma_pct < 10.0)
 
 
 def _add_row(rows: list, metric: str, value, order: int = 0) -> None:
-    rows.append({"order": order, "region": "identification", "metric": metric,
-                 "value": float(value)})  # fmt: skip
+    rows.append(
+        {"order": order, "region": "identification", "metric": metric, "value": float(value)}
+    )
 
 
 def _parameter_rows(result: Identification) -> list[dict[str, Any]]:
@@ -148,8 +155,12 @@ def score_identification(method: Method, scenario, seed: int) -> list[dict[str, 
     )
     add("sigma_rho", result.sigma_rho)
     fresh = scenario.motion(validation=True)
-    predicted = robot2r.regressor(fresh.q, fresh.qd, fresh.qdd, scenario.link1_length_m,
-                                  scenario.coulomb_slope) @ result.estimate  # fmt: skip
+    predicted = (
+        robot2r.regressor(
+            fresh.q, fresh.qd, fresh.qdd, scenario.link1_length_m, scenario.coulomb_slope
+        )
+        @ result.estimate
+    )
     for joint in (0, 1):
         error = predicted[:, joint] - fresh.tau[:, joint]
         rms = np.sqrt(np.mean(fresh.tau[:, joint] ** 2))

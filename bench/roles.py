@@ -15,8 +15,12 @@ ORDER_SYMBOLS = {0: "x", 1: "ẋ", 2: "ẍ"}
 TUNED_REGIONS = ("interior", "whole")
 # fields stored only when they differ from these defaults (older records lack them)
 OPTIONAL_DEFAULTS = {"tuning_seeds": 1, "tuned_region": "interior"}
-CRITERION_NAMES = {"oracle": "oracle", "no-truth": "no-truth", "pynumdiff": "PyNumDiff-loss",
-                   "surrogate": "surrogate"}  # fmt: skip
+CRITERION_NAMES = {
+    "oracle": "oracle",
+    "no-truth": "no-truth",
+    "pynumdiff": "PyNumDiff-loss",
+    "surrogate": "surrogate",
+}
 CRITERION_LEGEND = {
     "oracle": "minimises the interior (or whole-record) RMSE against the truth on the tuning seed",
     "no-truth": "minimises a data-only spectral estimate of that RMSE, from a bandlimit guess "
@@ -72,15 +76,19 @@ class Role:
     def __post_init__(self) -> None:
         if self.origin not in ("preset", "tuned", "variant"):
             raise ValueError(f"`origin` must be preset, tuned or variant, got {self.origin!r}")
-        if self.origin == "tuned" and (self.criterion not in CRITERION_NAMES
-                                       or self.tuned_order not in (1, 2)):  # fmt: skip
+        if self.origin == "tuned" and (
+            self.criterion not in CRITERION_NAMES or self.tuned_order not in (1, 2)
+        ):
             raise ValueError("a tuned role needs a criterion and a tuned_order of 1 or 2")
-        if isinstance(self.tuning_seeds, bool) or not (isinstance(self.tuning_seeds, int)
-                                                       and self.tuning_seeds >= 1):  # fmt: skip
+        if isinstance(self.tuning_seeds, bool) or not (
+            isinstance(self.tuning_seeds, int) and self.tuning_seeds >= 1
+        ):
             raise ValueError(f"`tuning_seeds` must be an integer >= 1, got {self.tuning_seeds!r}")
         if self.tuned_region not in TUNED_REGIONS:
-            raise ValueError(f"`tuned_region` must be one of {', '.join(TUNED_REGIONS)}, got "
-                             f"{self.tuned_region!r}")  # fmt: skip
+            raise ValueError(
+                f"`tuned_region` must be one of {', '.join(TUNED_REGIONS)}, got "
+                f"{self.tuned_region!r}"
+            )
         if self.origin != "tuned" and (self.tuning_seeds, self.tuned_region) != (1, "interior"):
             raise ValueError("only a tuned role has tuning seeds and a tuned region")
 
@@ -89,12 +97,24 @@ class Role:
         return cls(origin="preset", preset=key, by=by)
 
     @classmethod
-    def tuned(cls, criterion: str, order: int, seed: int, cutoff_hz: float | None = None,
-              seeds: int = 1, region: str = "interior") -> Role:  # fmt: skip
-        return cls(origin="tuned", criterion=criterion, tuned_order=int(order),
-                   tuning_seed=int(seed),
-                   cutoff_hz=None if cutoff_hz is None else float(cutoff_hz),
-                   tuning_seeds=seeds, tuned_region=region)  # fmt: skip
+    def tuned(
+        cls,
+        criterion: str,
+        order: int,
+        seed: int,
+        cutoff_hz: float | None = None,
+        seeds: int = 1,
+        region: str = "interior",
+    ) -> Role:
+        return cls(
+            origin="tuned",
+            criterion=criterion,
+            tuned_order=int(order),
+            tuning_seed=int(seed),
+            cutoff_hz=None if cutoff_hz is None else float(cutoff_hz),
+            tuning_seeds=seeds,
+            tuned_region=region,
+        )
 
     def as_dict(self) -> dict[str, Any]:
         """The stored fields; ``tuning_seeds`` and ``tuned_region`` only when they are not
@@ -126,5 +146,12 @@ class Role:
         """Presets first, then variants, then tuned by criterion and order."""
         rank = {"preset": 0, "variant": 1, "tuned": 2}[self.origin]
         criterion = list(CRITERION_NAMES).index(self.criterion) if self.criterion else -1
-        return (rank, criterion, self.tuned_order or 0, self.tuned_region == "whole",
-                self.tuning_seeds, self.variant, self.tuning_seed or 0)  # fmt: skip
+        return (
+            rank,
+            criterion,
+            self.tuned_order or 0,
+            self.tuned_region == "whole",
+            self.tuning_seeds,
+            self.variant,
+            self.tuning_seed or 0,
+        )

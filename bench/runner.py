@@ -54,8 +54,7 @@ class Cell:
     def computation(self) -> str:
         """What the cell computes (:func:`bench.store.computation_key`): its key less the
         role's provenance."""
-        return computation_key(self.task, self.method, self.params, self.seed,
-                               self.role.as_dict())  # fmt: skip
+        return computation_key(self.task, self.method, self.params, self.seed, self.role.as_dict())
 
     def __eq__(self, other: object) -> bool:
         return isinstance(other, Cell) and self.key == other.key
@@ -208,10 +207,13 @@ def run(
     for computation, group in twins.items():
         if computation in done:
             source = done[computation]
-            scores = [dict(zip(("order", "region", "metric", "value"), score, strict=True))
-                      for score in source["scores"]]  # fmt: skip
-            reused += sum(_store(store, cell, scores, source["elapsed_s"], source["key"])
-                          for cell in group)  # fmt: skip
+            scores = [
+                dict(zip(("order", "region", "metric", "value"), score, strict=True))
+                for score in source["scores"]
+            ]
+            reused += sum(
+                _store(store, cell, scores, source["elapsed_s"], source["key"]) for cell in group
+            )
     todo = [group[0] for computation, group in twins.items() if computation not in done]
     results = ordered_map(functools.partial(_timed, timeout_s=timeout_s), todo, jobs)
     paired = zip(todo, results, strict=True)
@@ -299,8 +301,14 @@ class TuningJob:
 
     @property
     def role(self) -> Role:
-        return Role.tuned(self.criterion, self.order, self.tuning_seed, self.cutoff_hz,
-                          self.tuning_seeds, self.region)  # fmt: skip
+        return Role.tuned(
+            self.criterion,
+            self.order,
+            self.tuning_seed,
+            self.cutoff_hz,
+            self.tuning_seeds,
+            self.region,
+        )
 
 
 def _tune(job: TuningJob) -> dict[str, Any] | None:

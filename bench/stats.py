@@ -178,8 +178,10 @@ def paired_comparison(first, second, level: float = 0.05) -> dict[str, float | b
     """
     first, second = np.asarray(first, dtype=float), np.asarray(second, dtype=float)
     if first.shape != second.shape or first.ndim != 1:
-        raise ValueError("paired scores `first` and `second` must be 1-D arrays over the same "
-                         f"seeds, got shapes {first.shape} and {second.shape}")  # fmt: skip
+        raise ValueError(
+            "paired scores `first` and `second` must be 1-D arrays over the same "
+            f"seeds, got shapes {first.shape} and {second.shape}"
+        )
     _check_level(level)
     difference = first - second
     n = difference.size
@@ -206,8 +208,14 @@ def paired_comparison(first, second, level: float = 0.05) -> dict[str, float | b
     }
 
 
-def ranking(rows: pd.DataFrame, metric: str, order: int, region: str,
-            keys=("method", "params"), level: float = 0.05) -> pd.DataFrame:  # fmt: skip
+def ranking(
+    rows: pd.DataFrame,
+    metric: str,
+    order: int,
+    region: str,
+    keys=("method", "params"),
+    level: float = 0.05,
+) -> pd.DataFrame:
     """Entries ranked by the mean of ``metric`` over seeds (smaller is better), each with its
     95 % confidence interval and a paired t-test against the next one down, with stated power.
 
@@ -253,11 +261,14 @@ def ranking(rows: pd.DataFrame, metric: str, order: int, region: str,
         raise ValueError("`keys` must name at least one column, got none")
     for column in (*keys, *_RANKING_COLUMNS):
         if column not in rows.columns:
-            raise ValueError(f"`rows` has no column {column!r} (needed by `keys` or the "
-                             f"ranking); it has {list(rows.columns)}")  # fmt: skip
+            raise ValueError(
+                f"`rows` has no column {column!r} (needed by `keys` or the "
+                f"ranking); it has {list(rows.columns)}"
+            )
     _check_level(level)
-    chosen = rows[(rows["metric"] == metric) & (rows["order"] == order)
-                  & (rows["region"] == region)]  # fmt: skip
+    chosen = rows[
+        (rows["metric"] == metric) & (rows["order"] == order) & (rows["region"] == region)
+    ]
     if chosen.empty:
         raise ValueError(f"no stored rows for {metric!r}, order {order}, region {region!r}")
     labelled = "preset" in chosen.columns and "preset" not in keys
@@ -266,16 +277,19 @@ def ranking(rows: pd.DataFrame, metric: str, order: int, region: str,
         repeated = group["seed"][group["seed"].duplicated()].unique()
         if repeated.size:
             where = dict(zip(keys, entry, strict=True))
-            raise ValueError(f"duplicated seeds {sorted(repeated.tolist())} for entry {where} "
-                             f"({metric!r}, order {order}, region {region!r}): each seed must "
-                             "appear once per entry")  # fmt: skip
+            raise ValueError(
+                f"duplicated seeds {sorted(repeated.tolist())} for entry {where} "
+                f"({metric!r}, order {order}, region {region!r}): each seed must "
+                "appear once per entry"
+            )
         values = group.set_index("seed")["value"].sort_index()
         mean, half = confidence_interval(values.to_numpy())
         record = dict(zip(keys, entry, strict=True))
         if labelled:
             record["preset"] = group["preset"].iloc[0]
-        record.update({"mean": mean, "ci95": half, "seeds": int(values.size),
-                       "_entry": len(series)})  # fmt: skip
+        record.update(
+            {"mean": mean, "ci95": half, "seeds": int(values.size), "_entry": len(series)}
+        )
         series.append(values)
         records.append(record)
     table = pd.DataFrame(records).sort_values("mean", kind="stable").reset_index(drop=True)
@@ -285,9 +299,12 @@ def ranking(rows: pd.DataFrame, metric: str, order: int, region: str,
         common = a.index.intersection(b.index)
         comparisons.append(paired_comparison(a[common].to_numpy(), b[common].to_numpy(), level))
     nan = [float("nan")]
-    for column, field in (("vs_next_mean_difference", "mean_difference"),
-                          ("vs_next_t_p", "t_p"), ("vs_next_wilcoxon_p", "wilcoxon_p"),
-                          ("detectable_difference_80", "detectable_difference_80")):  # fmt: skip
+    for column, field in (
+        ("vs_next_mean_difference", "mean_difference"),
+        ("vs_next_t_p", "t_p"),
+        ("vs_next_wilcoxon_p", "wilcoxon_p"),
+        ("detectable_difference_80", "detectable_difference_80"),
+    ):
         table[column] = [result[field] for result in comparisons] + nan
     table["significant_vs_next"] = pd.array(
         [result["significant"] for result in comparisons] + [pd.NA], dtype="boolean"

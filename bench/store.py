@@ -132,8 +132,10 @@ class RecordFile:
 
     # --- reading -------------------------------------------------------------------------
     def _header(self) -> bytes:
-        return (canonical({"record": "header", "format": FORMAT, "kind": self.kind,
-                           "version": VERSION}) + "\n").encode()  # fmt: skip
+        return (
+            canonical({"record": "header", "format": FORMAT, "kind": self.kind, "version": VERSION})
+            + "\n"
+        ).encode()
 
     def _classify(self, number: int, raw: bytes) -> tuple[str, dict | None, str]:
         """('header' | 'run' | 'record' | 'blank' | 'bad', record, reason)."""
@@ -235,10 +237,18 @@ class RecordFile:
         entries = []
         for number, raw, reason in bad:
             self.set_aside.append(SetAside(self.path, number, reason))
-            entries.append(canonical({
-                "file": self.path.name, "line": number, "reason": reason, "found_utc": utc_now(),
-                "text": raw.decode("utf-8", errors="backslashreplace"),
-            }) + "\n")  # fmt: skip
+            entries.append(
+                canonical(
+                    {
+                        "file": self.path.name,
+                        "line": number,
+                        "reason": reason,
+                        "found_utc": utc_now(),
+                        "text": raw.decode("utf-8", errors="backslashreplace"),
+                    }
+                )
+                + "\n"
+            )
         _append_whole(self.quarantine_path, "".join(entries).encode("utf-8"), create=True)
 
     def _replace(self, body: bytes) -> None:
@@ -331,22 +341,32 @@ def _append_whole(path: Path, data: bytes, create: bool = False) -> None:
 
 
 # --- cells ---------------------------------------------------------------------------------
-ROLE_FIELDS = ("origin", "preset", "by", "criterion", "tuned_order", "tuning_seed", "cutoff_hz",
-               "variant")  # fmt: skip
+ROLE_FIELDS = (
+    "origin",
+    "preset",
+    "by",
+    "criterion",
+    "tuned_order",
+    "tuning_seed",
+    "cutoff_hz",
+    "variant",
+)
 # fields a role stores only when they differ from their default (older records lack them)
 OPTIONAL_ROLE_FIELDS = dict(OPTIONAL_DEFAULTS)
 ROLE_COLUMNS = (*ROLE_FIELDS, *OPTIONAL_ROLE_FIELDS)
 ORIGINS = ("preset", "tuned", "variant")
 
 
-def cell_key(task: str, method: str, params: Mapping[str, Any], seed: int,
-             role: Mapping[str, Any]) -> str:  # fmt: skip
+def cell_key(
+    task: str, method: str, params: Mapping[str, Any], seed: int, role: Mapping[str, Any]
+) -> str:
     """The identity of a cell: task, method, canonical parameters, seed and role."""
     return canonical([task, method, dict(params), int(seed), dict(role)])
 
 
-def computation_key(task: str, method: str, params: Mapping[str, Any], seed: int,
-                    role: Mapping[str, Any]) -> str:  # fmt: skip
+def computation_key(
+    task: str, method: str, params: Mapping[str, Any], seed: int, role: Mapping[str, Any]
+) -> str:
     """What a cell computes: its key without the role, which is provenance (a preset, a
     tuning), except for the role's ``variant``, which can change what a task computes
     (:meth:`bench.tasks.Task.score_cell`). Cells with equal computation keys have equal
@@ -355,8 +375,13 @@ def computation_key(task: str, method: str, params: Mapping[str, Any], seed: int
 
 
 def _check_cell(record: dict) -> None:
-    for name, kind in (("task", str), ("method", str), ("params", dict), ("role", dict),
-                       ("scores", list)):  # fmt: skip
+    for name, kind in (
+        ("task", str),
+        ("method", str),
+        ("params", dict),
+        ("role", dict),
+        ("scores", list),
+    ):
         if not isinstance(record.get(name), kind):
             raise ValueError(f"`{name}` must be a {kind.__name__}")
     if not isinstance(record.get("package", ""), str):
@@ -369,9 +394,14 @@ def _check_cell(record: dict) -> None:
         raise ValueError(f"`role` must have the fields {', '.join(ROLE_FIELDS)}")
     Role(**role)  # the values: a ValueError names the field
     for score in record["scores"]:
-        if not (isinstance(score, list) and len(score) == 4 and isinstance(score[0], int)
-                and isinstance(score[1], str) and isinstance(score[2], str)
-                and (score[3] is None or isinstance(score[3], (int, float)))):  # fmt: skip
+        if not (
+            isinstance(score, list)
+            and len(score) == 4
+            and isinstance(score[0], int)
+            and isinstance(score[1], str)
+            and isinstance(score[2], str)
+            and (score[3] is None or isinstance(score[3], (int, float)))
+        ):
             raise ValueError(f"a score must be [order, region, metric, value], got {score!r}")
     expected = cell_key(record["task"], record["method"], record["params"], seed, role)
     if record.get("key") != expected:
@@ -384,8 +414,7 @@ def _check_seed_count(value: Any, name: str) -> None:
 
 
 # --- tunings -------------------------------------------------------------------------------
-TUNING_KEY_FIELDS = ("task", "method", "criterion", "order", "tuning_seed", "cutoff_hz",
-                     "budget")  # fmt: skip
+TUNING_KEY_FIELDS = ("task", "method", "criterion", "order", "tuning_seed", "cutoff_hz", "budget")
 
 
 # key fields stored only when they differ from their default (older records lack them)
@@ -395,8 +424,7 @@ OPTIONAL_TUNING_FIELDS = {"tuning_seeds": 1, "region": "interior"}
 def _optional(fields: Mapping[str, Any]) -> dict[str, Any]:
     """The optional key fields of ``fields`` that differ from their defaults."""
     values = {name: fields.get(name, default) for name, default in OPTIONAL_TUNING_FIELDS.items()}
-    return {name: value for name, value in values.items()
-            if value != OPTIONAL_TUNING_FIELDS[name]}  # fmt: skip
+    return {name: value for name, value in values.items() if value != OPTIONAL_TUNING_FIELDS[name]}
 
 
 def tuning_key(**fields: Any) -> str:
@@ -593,22 +621,39 @@ class Store:
             if file is not None:
                 file.refresh()
 
-    def add_cell(self, *, task: str, method: str, params: Mapping[str, Any], seed: int,
-                 role: Mapping[str, Any], scores: list[dict[str, Any]],
-                 elapsed_s: float, package: str = "unknown",
-                 same_as: str | None = None) -> bool:  # fmt: skip
+    def add_cell(
+        self,
+        *,
+        task: str,
+        method: str,
+        params: Mapping[str, Any],
+        seed: int,
+        role: Mapping[str, Any],
+        scores: list[dict[str, Any]],
+        elapsed_s: float,
+        package: str = "unknown",
+        same_as: str | None = None,
+    ) -> bool:
         """Store one finished cell; False if another writer stored it first. ``package``: the
         distribution and version whose code computed it (``methods.package_of``).
         ``same_as``: the key of the cell whose computation this one's scores are (the same
         computation key, see :func:`computation_key`; its ``elapsed_s`` is that one's)."""
         key = cell_key(task, method, params, seed, role)
         record = {
-            "key": key, "task": task, "method": method, "params": dict(params),
-            "seed": int(seed), "role": dict(role), "finished_utc": utc_now(),
-            "elapsed_s": round(float(elapsed_s), 6), "package": str(package),
-            "scores": [[int(s["order"]), str(s["region"]), str(s["metric"]),
-                        _number(s["value"])] for s in scores],
-        }  # fmt: skip
+            "key": key,
+            "task": task,
+            "method": method,
+            "params": dict(params),
+            "seed": int(seed),
+            "role": dict(role),
+            "finished_utc": utc_now(),
+            "elapsed_s": round(float(elapsed_s), 6),
+            "package": str(package),
+            "scores": [
+                [int(s["order"]), str(s["region"]), str(s["metric"]), _number(s["value"])]
+                for s in scores
+            ],
+        }
         if same_as is not None:
             record["same_as"] = str(same_as)
         return self.cells.append(record)
@@ -621,9 +666,12 @@ class Store:
         current = provenance()
         if current["git_rev"] in ("", "unknown") or current["git_rev"].endswith("+dirty"):
             return {}
-        runs = {run for run, meta in self.cells.runs.items()
-                if meta.get("git_rev") == current["git_rev"]
-                and meta.get("versions") == current["versions"]}  # fmt: skip
+        runs = {
+            run
+            for run, meta in self.cells.runs.items()
+            if meta.get("git_rev") == current["git_rev"]
+            and meta.get("versions") == current["versions"]
+        }
         return {
             computation_key(r["task"], r["method"], r["params"], r["seed"], r["role"]): r
             for r in self.cells.records.values()
@@ -633,13 +681,26 @@ class Store:
     def find_tuning(self, **fields: Any) -> dict | None:
         return self.tunings.records.get(tuning_key(**fields))
 
-    def add_tuning(self, *, params: Mapping[str, Any], loss: float, evaluations: int,
-                   seconds: float, **fields: Any) -> bool:  # fmt: skip
+    def add_tuning(
+        self,
+        *,
+        params: Mapping[str, Any],
+        loss: float,
+        evaluations: int,
+        seconds: float,
+        **fields: Any,
+    ) -> bool:
         """Store one finished tuning (its key fields; the optional ones when not default)."""
-        record = {"key": tuning_key(**fields), **{n: fields[n] for n in TUNING_KEY_FIELDS},
-                  **_optional(fields),
-                  "params": dict(params), "loss": _number(loss), "evaluations": int(evaluations),
-                  "seconds": round(float(seconds), 4), "finished_utc": utc_now()}  # fmt: skip
+        record = {
+            "key": tuning_key(**fields),
+            **{n: fields[n] for n in TUNING_KEY_FIELDS},
+            **_optional(fields),
+            "params": dict(params),
+            "loss": _number(loss),
+            "evaluations": int(evaluations),
+            "seconds": round(float(seconds), 4),
+            "finished_utc": utc_now(),
+        }
         return self.tunings.append(record)
 
     def cells_frame(self, task: str | Iterable[str] | None = None) -> pd.DataFrame:
@@ -685,14 +746,28 @@ class Store:
     def tunings_frame(self) -> pd.DataFrame:
         """One row per stored tuning: its key fields, tuning_seeds, region, params
         (canonical JSON), loss, evaluations, seconds."""
-        records = [{**{n: r[n] for n in TUNING_KEY_FIELDS},
-                    **{n: r.get(n, d) for n, d in OPTIONAL_TUNING_FIELDS.items()},
-                    "params": canonical(r["params"]),
-                    "loss": r["loss"], "evaluations": r["evaluations"], "seconds": r["seconds"]}
-                   for r in self.tunings.records.values()]  # fmt: skip
-        return pd.DataFrame(records, columns=[*TUNING_KEY_FIELDS, *OPTIONAL_TUNING_FIELDS,
-                                              "params", "loss",
-                                              "evaluations", "seconds"])  # fmt: skip
+        records = [
+            {
+                **{n: r[n] for n in TUNING_KEY_FIELDS},
+                **{n: r.get(n, d) for n, d in OPTIONAL_TUNING_FIELDS.items()},
+                "params": canonical(r["params"]),
+                "loss": r["loss"],
+                "evaluations": r["evaluations"],
+                "seconds": r["seconds"],
+            }
+            for r in self.tunings.records.values()
+        ]
+        return pd.DataFrame(
+            records,
+            columns=[
+                *TUNING_KEY_FIELDS,
+                *OPTIONAL_TUNING_FIELDS,
+                "params",
+                "loss",
+                "evaluations",
+                "seconds",
+            ],
+        )
 
     def revisions(self) -> set[str]:
         """Git revisions of the code that computed the stored cells."""
@@ -700,8 +775,19 @@ class Store:
         return {self.cells.runs.get(run, {}).get("git_rev", "unknown") for run in used}
 
 
-_FIXED = ("task", "method", "params", "seed", "role", *ROLE_COLUMNS, "run", "git_rev",
-          "finished_utc", "elapsed_s", "package")  # fmt: skip
+_FIXED = (
+    "task",
+    "method",
+    "params",
+    "seed",
+    "role",
+    *ROLE_COLUMNS,
+    "run",
+    "git_rev",
+    "finished_utc",
+    "elapsed_s",
+    "package",
+)
 FRAME_COLUMNS = (*_FIXED, "order", "region", "metric", "value")
 
 

@@ -182,8 +182,10 @@ def spectral_lines(
     for k in range(2, min(last + 1, power.size - 2)):
         if not (power[k] >= power[k - 1] and power[k] > power[k + 1]):
             continue
-        sides = [power[max(0, k - 2 - LINE_NEIGHBOURS) : max(0, k - 2)],
-                 power[k + 3 : k + 3 + LINE_NEIGHBOURS]]  # fmt: skip
+        sides = [
+            power[max(0, k - 2 - LINE_NEIGHBOURS) : max(0, k - 2)],
+            power[k + 3 : k + 3 + LINE_NEIGHBOURS],
+        ]
         # the quieter side: a neighbouring line's lobe on the other does not hide this one
         quieter = min(float(np.median(side)) for side in sides if side.size)
         if power[k] < LINE_RATIO * max(quieter, spectrum.noise_floor):
@@ -241,9 +243,12 @@ def continuum_spectrum(
     where = np.flatnonzero(scored)
     stretch = sps.detrend(rest[where[0] : where[-1] + 1])
     tapers, concentration = sps.windows.dpss(
-        stretch.size, TIME_BANDWIDTH, int(2 * TIME_BANDWIDTH) - 1, sym=False,
+        stretch.size,
+        TIME_BANDWIDTH,
+        int(2 * TIME_BANDWIDTH) - 1,
+        sym=False,
         return_ratios=True,
-    )  # fmt: skip
+    )
     tapers = tapers[concentration >= MIN_CONCENTRATION]
     power = np.mean(np.abs(np.fft.rfft(tapers * stretch, axis=1)) ** 2, axis=0)
     frequency = np.fft.rfftfreq(stretch.size, dt)
@@ -294,9 +299,14 @@ def fit_lines(
 
     resolution = 1.0 / (x.size * dt)
     solution = optimize.least_squares(
-        residual, start, bounds=(start - resolution, start + resolution), x_scale=resolution,
-        xtol=1e-12, ftol=1e-12, gtol=1e-12,
-    )  # fmt: skip
+        residual,
+        start,
+        bounds=(start - resolution, start + resolution),
+        x_scale=resolution,
+        xtol=1e-12,
+        ftol=1e-12,
+        gtol=1e-12,
+    )
     design, coefficients = fitted(solution.x)
     cosine, sine = np.split(coefficients[2:], 2)
     # A cos(ωt + φ) = A cos φ cos ωt − A sin φ sin ωt

@@ -269,10 +269,13 @@ def legend(rows: pd.DataFrame, extra: str = "") -> str:
         tuned = table[table["criterion"] == criterion]
         pairs = zip(tuned["tuning_seed"], tuned["tuning_seeds"], strict=True)
         spans = sorted({(int(first), int(count)) for first, count in pairs})
-        seeds = ", ".join(str(first) if count == 1 else f"{first}–{first + count - 1}"
-                          for first, count in spans)  # fmt: skip
-        text = (f"- **{CRITERION_NAMES[criterion]}-tuned for n**: {CRITERION_LEGEND[criterion]}"
-                f" (noise seed {seeds}, never scored")  # fmt: skip
+        seeds = ", ".join(
+            str(first) if count == 1 else f"{first}–{first + count - 1}" for first, count in spans
+        )
+        text = (
+            f"- **{CRITERION_NAMES[criterion]}-tuned for n**: {CRITERION_LEGEND[criterion]}"
+            f" (noise seed {seeds}, never scored"
+        )
         if any(count > 1 for _, count in spans):
             text += "; **K seeds**: the loss averaged over K consecutive seeds"
         if (tuned["tuned_region"] == "whole").any():

@@ -77,16 +77,17 @@ class Task:
         samples, dt = record
         longest = method.max_samples(dt)
         if longest is not None and samples > longest:
-            return (f"{samples} samples, it accepts at most {longest} "
-                    f"({method.max_samples_reason})")  # fmt: skip
+            return f"{samples} samples, it accepts at most {longest} ({method.max_samples_reason})"
         return None
 
     def seeds(self, count: int | None) -> range:
         """The seeds 0..count-1 (``default_seeds`` if None); ValueError past ``max_seeds``."""
         count = self.default_seeds if count is None else count
         if self.max_seeds is not None and count > self.max_seeds:
-            raise ValueError(f"{self.name} has {self.max_seeds} seeds (fixed); "
-                             f"--seeds must be at most {self.max_seeds}, got {count}")  # fmt: skip
+            raise ValueError(
+                f"{self.name} has {self.max_seeds} seeds (fixed); "
+                f"--seeds must be at most {self.max_seeds}, got {count}"
+            )
         return range(count)
 
     def score(self, method: methods.Method, seed: int) -> list[dict]:
@@ -101,8 +102,10 @@ class Task:
         raise NotImplementedError
 
     def tuning_data(self, seed: int):
-        raise ValueError(f"task {self.name!r} cannot be tuned (tuning needs a signal task with "
-                         "its truth, e.g. paper-signal)")  # fmt: skip
+        raise ValueError(
+            f"task {self.name!r} cannot be tuned (tuning needs a signal task with "
+            "its truth, e.g. paper-signal)"
+        )
 
 
 class ScenarioTask(Task):
@@ -144,9 +147,10 @@ class SignalTask(ScenarioTask):
         if method.linear:
             for order in (1, 2):
                 parts = decompose_error(method, realisation, order)
-                rows += [{"order": order, "region": "interior", "metric": metric, "value": value}
-                         for metric, value in (("bias_rmse", parts.bias),
-                                               ("noise_rmse", parts.noise))]  # fmt: skip
+                rows += [
+                    {"order": order, "region": "interior", "metric": metric, "value": value}
+                    for metric, value in (("bias_rmse", parts.bias), ("noise_rmse", parts.noise))
+                ]
         return rows
 
     def tuning_data(self, seed):
@@ -216,16 +220,23 @@ class JacobiInfluenceTask(SignalTask):
 
     @property
     def description(self) -> str:
-        return ("Table I of the paper measured: bias and noise parts of the Jacobi error on "
-                "paper-signal as κ = μ, q and T move from the paper's preset.")  # fmt: skip
+        return (
+            "Table I of the paper measured: bias and noise parts of the Jacobi error on "
+            "paper-signal as κ = μ, q and T move from the paper's preset."
+        )
 
     def lineup(self, method_names=None):
         if method_names and list(method_names) != ["jacobi"]:
             raise ValueError("jacobi-influence runs the jacobi method only")
         base = methods.preset("jacobi", "paper-signal").params()
-        return [Entry("jacobi", {**base, **change},
-                      Role(origin="variant", preset="paper-signal", by="paper", variant=label))
-                for label, change in INFLUENCE_VARIANTS]  # fmt: skip
+        return [
+            Entry(
+                "jacobi",
+                {**base, **change},
+                Role(origin="variant", preset="paper-signal", by="paper", variant=label),
+            )
+            for label, change in INFLUENCE_VARIANTS
+        ]
 
     def report(self, cells, tunings, directory):
         return reports.influence_report(cells, directory)
@@ -324,8 +335,9 @@ class DfkiTask(Task):
         entries = []
         for entry in super().lineup(method_names):
             entries.append(entry)
-            nested = Role(origin="variant", preset=entry.role.preset, by=entry.role.by,
-                          variant=NESTED_VARIANT)  # fmt: skip
+            nested = Role(
+                origin="variant", preset=entry.role.preset, by=entry.role.by, variant=NESTED_VARIANT
+            )
             entries.append(Entry(entry.method, entry.params, nested))
         return entries
 
@@ -361,12 +373,18 @@ def sweep_lineup(task: str, method_names=None) -> list[Entry]:
     entries = []
     for name in names:
         if not methods.method_class(name).causal:
-            raise ValueError(f"{task} runs causal methods only; {name} is not causal "
-                             "(see `diffbench list`)")  # fmt: skip
+            raise ValueError(
+                f"{task} runs causal methods only; {name} is not causal (see `diffbench list`)"
+            )
         for label, params in sweep_settings(name):
             full = methods.get(name, **params).params()
-            entries.append(Entry(name, full, Role(origin="variant", preset="default",
-                                                  by="defaults", variant=label)))  # fmt: skip
+            entries.append(
+                Entry(
+                    name,
+                    full,
+                    Role(origin="variant", preset="default", by="defaults", variant=label),
+                )
+            )
     return entries
 
 
@@ -394,9 +412,11 @@ class OnlineTask(ScenarioTask):
 
     @property
     def description(self) -> str:
-        return (f"The online track on `{self.scenario.name}`: the causal methods at sweeps of "
-                "their settings, scored on delay and on the error at the time of the "
-                "estimate.")  # fmt: skip
+        return (
+            f"The online track on `{self.scenario.name}`: the causal methods at sweeps of "
+            "their settings, scored on delay and on the error at the time of the "
+            "estimate."
+        )
 
     def lineup(self, method_names=None):
         return sweep_lineup(self.name, method_names)
@@ -441,8 +461,10 @@ class LoopTask(Task):
 
     @property
     def description(self) -> str:
-        return (f"In the loop: {self.spec.name}; each causal method estimates q̇ online for "
-                "the velocity term, against the same controller fed the exact q̇.")  # fmt: skip
+        return (
+            f"In the loop: {self.spec.name}; each causal method estimates q̇ online for "
+            "the velocity term, against the same controller fed the exact q̇."
+        )
 
     def lineup(self, method_names=None):
         return sweep_lineup(self.name, method_names)
@@ -522,6 +544,8 @@ def get_task(name: str) -> Task:
     try:
         return _TASKS[name]
     except (KeyError, TypeError):
-        raise ValueError(f"unknown task {name!r}; available: "
-                         f"{', '.join(available_tasks(listed_only=True))} and the grid's "
-                         "(diffbench list)") from None  # fmt: skip
+        raise ValueError(
+            f"unknown task {name!r}; available: "
+            f"{', '.join(available_tasks(listed_only=True))} and the grid's "
+            "(diffbench list)"
+        ) from None

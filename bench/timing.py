@@ -135,17 +135,26 @@ def throughput(sizes=SIZES, repeats: int = 3, names=None, progress=None) -> pd.D
                 best = min(best, time.perf_counter() - start)
                 del estimate
             times[size] = best
-            records.append({"method": name, "package": methods.package_of(name),
-                            "causal": methods.method_class(name).causal, "samples": size,
-                            "seconds": best, "samples_per_s": size / best,
-                            "peak_mib": peak})  # fmt: skip
+            records.append(
+                {
+                    "method": name,
+                    "package": methods.package_of(name),
+                    "causal": methods.method_class(name).causal,
+                    "samples": size,
+                    "seconds": best,
+                    "samples_per_s": size / best,
+                    "peak_mib": peak,
+                }
+            )
         growth = (times[timed[-1]] / timed[-1]) / (times[timed[0]] / timed[0])
         for record in records[-len(timed) :]:
             record["growth_per_sample"] = growth
         if progress is not None:
             last = records[-1]
-            progress(f"{name}: {last['samples_per_s']:.3g} samples/s, "
-                     f"{last['peak_mib']:.0f} MiB at {last['samples']:g} samples")  # fmt: skip
+            progress(
+                f"{name}: {last['samples_per_s']:.3g} samples/s, "
+                f"{last['peak_mib']:.0f} MiB at {last['samples']:g} samples"
+            )
     return pd.DataFrame(records)
 
 
@@ -158,21 +167,31 @@ def write_throughput(directory: Path, table: pd.DataFrame) -> list[Path]:
     table.to_csv(csv, index=False)
     sizes = sorted(table["samples"].unique())
     header = " | ".join(f"{s:.0e}" for s in sizes)
-    lines = ["# Throughput (samples/s, orders 0-2, paper-signal presets or class defaults, best "
-             "of repeats)", "",
-             "Time per sample at the largest size timed over that at the smallest: 1 is linear "
-             "growth (— where one size only was timed). — in a size column: not timed at that "
-             "size (see the caps below).",
-             "", f"| method | package | {header} | growth |",
-             "|---|---|" + "---|" * (len(sizes) + 1)]  # fmt: skip
-    memory = ["", "## Peak memory (MiB above the input, orders 0-2 in one call)", "",
-              "The resident memory the call adds at its peak (its outputs and temporaries; the "
-              "input of 8 bytes a sample is not counted), read from the kernel's high-water "
-              "mark reset before the call. Three float64 outputs take 24 bytes a sample "
-              "(229 MiB at 1e7). Only memory newly taken from the system counts: on short "
-              "records the process mostly reuses memory it freed before, hence the zeros; the "
-              "1e7 column is the one to read.", "",
-              f"| method | {header} |", "|---|" + "---|" * len(sizes)]  # fmt: skip
+    lines = [
+        "# Throughput (samples/s, orders 0-2, paper-signal presets or class defaults, best "
+        "of repeats)",
+        "",
+        "Time per sample at the largest size timed over that at the smallest: 1 is linear "
+        "growth (— where one size only was timed). — in a size column: not timed at that "
+        "size (see the caps below).",
+        "",
+        f"| method | package | {header} | growth |",
+        "|---|---|" + "---|" * (len(sizes) + 1),
+    ]
+    memory = [
+        "",
+        "## Peak memory (MiB above the input, orders 0-2 in one call)",
+        "",
+        "The resident memory the call adds at its peak (its outputs and temporaries; the "
+        "input of 8 bytes a sample is not counted), read from the kernel's high-water "
+        "mark reset before the call. Three float64 outputs take 24 bytes a sample "
+        "(229 MiB at 1e7). Only memory newly taken from the system counts: on short "
+        "records the process mostly reuses memory it freed before, hence the zeros; the "
+        "1e7 column is the one to read.",
+        "",
+        f"| method | {header} |",
+        "|---|" + "---|" * len(sizes),
+    ]
     caps = []
     for name, group in table.groupby("method"):
         rates = group.set_index("samples")["samples_per_s"]
@@ -182,9 +201,14 @@ def write_throughput(directory: Path, table: pd.DataFrame) -> list[Path]:
         lines.append(f"| {name} | {package} | {cells} | {growth} |")
         if "peak_mib" in group:
             peaks = group.set_index("samples")["peak_mib"]
-            memory.append(f"| {name} | " + " | ".join(
-                f"{peaks[s]:.0f}" if s in peaks.index and np.isfinite(peaks[s]) else "—"
-                for s in sizes) + " |")  # fmt: skip
+            memory.append(
+                f"| {name} | "
+                + " | ".join(
+                    f"{peaks[s]:.0f}" if s in peaks.index and np.isfinite(peaks[s]) else "—"
+                    for s in sizes
+                )
+                + " |"
+            )
         cap, why = size_cap(name)
         if cap is not None and cap < max(sizes):
             caps.append(f"- {name}: timed up to {cap:g} samples ({why})")
@@ -207,8 +231,13 @@ def write_growth_figure(table: pd.DataFrame, path: Path) -> Path:
     for axis, (kind, label) in zip(axes[0], kinds, strict=True):
         for name, group in table[causal == kind].groupby("method"):
             group = group.sort_values("samples")
-            axis.plot(group["samples"], 1e6 * group["seconds"] / group["samples"],
-                      marker=styles[name].marker, label=name, **styles[name].line())  # fmt: skip
+            axis.plot(
+                group["samples"],
+                1e6 * group["seconds"] / group["samples"],
+                marker=styles[name].marker,
+                label=name,
+                **styles[name].line(),
+            )
         axis.set_xscale("log")
         axis.set_yscale("log")
         axis.set_xlabel("samples")
@@ -247,8 +276,9 @@ def filterpy_smoother(x: np.ndarray, model, mean0: np.ndarray, covariance0: np.n
     return kf.rts_smoother(means, covariances)[0][:, :, 0]
 
 
-def kalman_against_filterpy(samples: int = 1_000_000, filterpy_samples: int = 80_000,
-                            repeats: int = 3) -> dict:  # fmt: skip
+def kalman_against_filterpy(
+    samples: int = 1_000_000, filterpy_samples: int = 80_000, repeats: int = 3
+) -> dict:
     """The Kalman smoother (paper-signal preset) against filterpy's ``batch_filter`` +
     ``rts_smoother`` with the same model and prior, per sample (filterpy, a Python loop over
     samples, on a shorter record: 80,000 samples, long enough for the smoother's block path,
@@ -263,17 +293,27 @@ def kalman_against_filterpy(samples: int = 1_000_000, filterpy_samples: int = 80
     short = x[:filterpy_samples]
     model = kalman.model(DT)
     mean0, covariance0 = initial_state(short[:, None], model.per_step_coefficient)
-    theirs = _best_seconds(lambda: filterpy_smoother(short, model, mean0, covariance0),
-                           max(1, repeats - 1)) / filterpy_samples  # fmt: skip
+    theirs = (
+        _best_seconds(
+            lambda: filterpy_smoother(short, model, mean0, covariance0), max(1, repeats - 1)
+        )
+        / filterpy_samples
+    )
     estimate = kalman(short, DT)
     kept = estimate.valid[0]
     smoothed = filterpy_smoother(short, model, mean0, covariance0)
-    return {"comparison": "Kalman smoother, per sample", "ours": "kalman (paper-signal preset)",
-            "peer": "filterpy batch_filter + rts_smoother, same model",
-            "peer_package": _package("filterpy"),
-            "ours_s": ours, "peer_s": theirs, "unit": "s per sample",
-            "ratio": theirs / ours, "target": 1000.0,
-            "agreement": float(np.max(np.abs(estimate[0][kept] - smoothed[kept, 0])))}  # fmt: skip
+    return {
+        "comparison": "Kalman smoother, per sample",
+        "ours": "kalman (paper-signal preset)",
+        "peer": "filterpy batch_filter + rts_smoother, same model",
+        "peer_package": _package("filterpy"),
+        "ours_s": ours,
+        "peer_s": theirs,
+        "unit": "s per sample",
+        "ratio": theirs / ours,
+        "target": 1000.0,
+        "agreement": float(np.max(np.abs(estimate[0][kept] - smoothed[kept, 0]))),
+    }
 
 
 def jacobi_against_oaconvolve(samples: int = 1_000_000, repeats: int = 7) -> dict:
@@ -302,13 +342,21 @@ def jacobi_against_oaconvolve(samples: int = 1_000_000, repeats: int = 7) -> dic
         reference = sps.oaconvolve(x, kernel, mode="valid")
         half = kernel.size // 2
         inside = estimate[order][half : samples - half]
-        agreement = max(agreement, float(np.max(np.abs(inside - reference))
-                                         / np.max(np.abs(reference))))  # fmt: skip
-    return {"comparison": "Jacobi orders 0-2, one call", "ours": "jacobi (paper-signal preset)",
-            "peer": "three scipy.signal.oaconvolve calls with its kernels",
-            "peer_package": _package("scipy"),
-            "ours_s": ours, "peer_s": theirs, "unit": f"s per {samples:g} samples",
-            "ratio": theirs / ours, "target": 1.3, "agreement": agreement}  # fmt: skip
+        agreement = max(
+            agreement, float(np.max(np.abs(inside - reference)) / np.max(np.abs(reference)))
+        )
+    return {
+        "comparison": "Jacobi orders 0-2, one call",
+        "ours": "jacobi (paper-signal preset)",
+        "peer": "three scipy.signal.oaconvolve calls with its kernels",
+        "peer_package": _package("scipy"),
+        "ours_s": ours,
+        "peer_s": theirs,
+        "unit": f"s per {samples:g} samples",
+        "ratio": theirs / ours,
+        "target": 1.3,
+        "agreement": agreement,
+    }
 
 
 TUNING_PEERS = {"butterworth": "butterdiff", "savitzky_golay": "savgoldiff", "kalman": "rtsdiff"}
@@ -343,8 +391,14 @@ def _paper_signal_head(samples: int, margin: int):
     truth = Truth(
         t=whole.truth.t[head], derivatives=tuple(d[head] for d in whole.truth.derivatives)
     )
-    return replace(whole, t=whole.t[head], x=whole.x[head], noise=whole.noise[head], truth=truth,
-                   interior=interior)  # fmt: skip
+    return replace(
+        whole,
+        t=whole.t[head],
+        x=whole.x[head],
+        noise=whole.noise[head],
+        truth=truth,
+        interior=interior,
+    )
 
 
 def tuning_against_pynumdiff(
@@ -380,29 +434,48 @@ def tuning_against_pynumdiff(
             start = time.perf_counter()
             ours = tuning.tune(name, record, 1, "oracle")
             ours_s = min(ours_s, time.perf_counter() - start)
-        function(x, DT, **optimize(function, x, DT, dxdt_truth=truth, padding=margin,
-                                   maxiter=1, parallel=False)[0])  # fmt: skip
+        function(
+            x,
+            DT,
+            **optimize(
+                function, x, DT, dxdt_truth=truth, padding=margin, maxiter=1, parallel=False
+            )[0],
+        )
         peer = {}
         for parallel in [False] * max(repeats - 1, 1) + [True]:
             start = time.perf_counter()
-            params, _ = optimize(function, x, DT, dxdt_truth=truth, padding=margin,
-                                 parallel=parallel)  # fmt: skip
+            params, _ = optimize(
+                function, x, DT, dxdt_truth=truth, padding=margin, parallel=parallel
+            )
             seconds = time.perf_counter() - start
             if parallel not in peer or seconds < peer[parallel][0]:
                 peer[parallel] = (seconds, params)
         fastest = min(peer, key=lambda p: peer[p][0])
         params = peer[fastest][1]
-        peer_rmse = float(np.sqrt(np.mean((function(x, DT, **params)[1][inside] - truth[inside])
-                                          ** 2)))  # fmt: skip
-        rows.append({"comparison": "oracle tuning for ẋ, 1000 samples", "ours": name,
-                     "peer": f"pynumdiff.optimize({TUNING_PEERS[name]})",
-                     "peer_package": _package("pynumdiff"),
-                     "ours_s": ours_s, "peer_s": peer[fastest][0], "unit": "s per tuning",
-                     "ratio": peer[fastest][0] / ours_s, "target": 50.0,
-                     "agreement": float("nan"), "peer_serial_s": peer[False][0],
-                     "peer_pool_s": peer[True][0], "ours_rmse": ours.loss,
-                     "peer_rmse": peer_rmse, "ours_params": ours.params,
-                     "peer_params": params, "ours_evaluations": ours.evaluations})  # fmt: skip
+        peer_rmse = float(
+            np.sqrt(np.mean((function(x, DT, **params)[1][inside] - truth[inside]) ** 2))
+        )
+        rows.append(
+            {
+                "comparison": "oracle tuning for ẋ, 1000 samples",
+                "ours": name,
+                "peer": f"pynumdiff.optimize({TUNING_PEERS[name]})",
+                "peer_package": _package("pynumdiff"),
+                "ours_s": ours_s,
+                "peer_s": peer[fastest][0],
+                "unit": "s per tuning",
+                "ratio": peer[fastest][0] / ours_s,
+                "target": 50.0,
+                "agreement": float("nan"),
+                "peer_serial_s": peer[False][0],
+                "peer_pool_s": peer[True][0],
+                "ours_rmse": ours.loss,
+                "peer_rmse": peer_rmse,
+                "ours_params": ours.params,
+                "peer_params": params,
+                "ours_evaluations": ours.evaluations,
+            }
+        )
     return rows
 
 
@@ -427,40 +500,55 @@ def write_ratios(directory: Path, table: pd.DataFrame) -> list[Path]:
     directory.mkdir(parents=True, exist_ok=True)
     csv, markdown = directory / "ratios.csv", directory / "ratios.md"
     table.to_csv(csv, index=False)
-    lines = ["# Speed against the peers (measured in one run, this machine)", "",
-             "ratio = the peer's time / ours, on the same data (per sample where the record "
-             "lengths differ). Agreement: the largest difference of the outputs (the Kalman "
-             "positions on the samples the method keeps; Jacobi's relative to each output's "
-             "largest value).", "",
-             "| comparison | ours | peer | ours (s) | peer (s) | unit | ratio | target | "
-             "agreement |", "|---|---|---|---:|---:|---|---:|---:|---:|"]  # fmt: skip
+    lines = [
+        "# Speed against the peers (measured in one run, this machine)",
+        "",
+        "ratio = the peer's time / ours, on the same data (per sample where the record "
+        "lengths differ). Agreement: the largest difference of the outputs (the Kalman "
+        "positions on the samples the method keeps; Jacobi's relative to each output's "
+        "largest value).",
+        "",
+        "| comparison | ours | peer | ours (s) | peer (s) | unit | ratio | target | agreement |",
+        "|---|---|---|---:|---:|---|---:|---:|---:|",
+    ]
     for row in table.itertuples(index=False):
         agreement = f"{row.agreement:.1e}" if np.isfinite(row.agreement) else "—"
-        lines.append(f"| {row.comparison} | {row.ours} | {row.peer} ({row.peer_package}) | "
-                     f"{row.ours_s:.3g} | {row.peer_s:.3g} | {row.unit} | {row.ratio:.3g} | "
-                     f"{row.target:g} | {agreement} |")  # fmt: skip
+        lines.append(
+            f"| {row.comparison} | {row.ours} | {row.peer} ({row.peer_package}) | "
+            f"{row.ours_s:.3g} | {row.peer_s:.3g} | {row.unit} | {row.ratio:.3g} | "
+            f"{row.target:g} | {agreement} |"
+        )
     tunings = table[table["comparison"].str.startswith("oracle tuning")]
     if len(tunings):
-        lines += ["", "## Oracle tuning against PyNumDiff's optimize", "",
-                  "The first 1000 samples of paper-signal seed 0 (dt = 1 ms), RMSE of ẋ against "
-                  "the truth on samples 150..849 (PyNumDiff's padding = 150), the same "
-                  "objective for both, each warmed up by an untimed run. PyNumDiff with its "
-                  "default search space, twice serially and once with its process pool (the "
-                  "fastest run counts); ours with its default budget, the end-trust check of "
-                  "every setting included (PyNumDiff has none), the best of three runs, each "
-                  "with the methods' caches emptied first.", "",
-                  "| ours | seconds | evaluations | RMSE ẋ | setting | PyNumDiff | serial (s) "
-                  "| pool (s) | RMSE ẋ | setting |",
-                  "|---|---:|---:|---:|---|---|---:|---:|---:|---|"]  # fmt: skip
+        lines += [
+            "",
+            "## Oracle tuning against PyNumDiff's optimize",
+            "",
+            "The first 1000 samples of paper-signal seed 0 (dt = 1 ms), RMSE of ẋ against "
+            "the truth on samples 150..849 (PyNumDiff's padding = 150), the same "
+            "objective for both, each warmed up by an untimed run. PyNumDiff with its "
+            "default search space, twice serially and once with its process pool (the "
+            "fastest run counts); ours with its default budget, the end-trust check of "
+            "every setting included (PyNumDiff has none), the best of three runs, each "
+            "with the methods' caches emptied first.",
+            "",
+            "| ours | seconds | evaluations | RMSE ẋ | setting | PyNumDiff | serial (s) "
+            "| pool (s) | RMSE ẋ | setting |",
+            "|---|---:|---:|---:|---|---|---:|---:|---:|---|",
+        ]
         for row in tunings.itertuples(index=False):
-            lines.append(f"| {row.ours} | {row.ours_s:.3g} | {int(row.ours_evaluations)} | "
-                         f"{row.ours_rmse:.4g} | {_setting(row.ours_params)} | {row.peer} | "
-                         f"{row.peer_serial_s:.3g} | {row.peer_pool_s:.3g} | "
-                         f"{row.peer_rmse:.4g} | {_setting(row.peer_params)} |")  # fmt: skip
+            lines.append(
+                f"| {row.ours} | {row.ours_s:.3g} | {int(row.ours_evaluations)} | "
+                f"{row.ours_rmse:.4g} | {_setting(row.ours_params)} | {row.peer} | "
+                f"{row.peer_serial_s:.3g} | {row.peer_pool_s:.3g} | "
+                f"{row.peer_rmse:.4g} | {_setting(row.peer_params)} |"
+            )
     markdown.write_text("\n".join([*lines, ""]), encoding="utf-8")
     return [markdown, csv]
 
 
 def _setting(params: dict) -> str:
-    return ", ".join(f"{key} {value:.4g}" if isinstance(value, float) else f"{key} {value}"
-                     for key, value in params.items())  # fmt: skip
+    return ", ".join(
+        f"{key} {value:.4g}" if isinstance(value, float) else f"{key} {value}"
+        for key, value in params.items()
+    )

@@ -83,8 +83,7 @@ SMALL_INTEGER_RANGE = 4
 """Integer parameters with at most this many values are searched like choices, one by one."""
 
 
-def search_space(name: str, dt: float, n_samples: int,
-                 region: str = "interior") -> list[Dimension]:  # fmt: skip
+def search_space(name: str, dt: float, n_samples: int, region: str = "interior") -> list[Dimension]:
     """The dimensions searched for method ``name`` at step ``dt`` on ``n_samples`` samples, by
     a loss taken on ``region`` (parameters declared ``ends_only`` only on the whole record)."""
     cls = methods.method_class(name)
@@ -152,14 +151,21 @@ class NoiseSplit:
         weights[0] = 1.0
         if n % 2 == 0:
             weights[-1] = 1.0
-        return cls(frequency, np.where(above, 0.0, np.maximum(power - floor, 0.0)),
-                   np.where(above, power, floor), weights, n)  # fmt: skip
+        return cls(
+            frequency,
+            np.where(above, 0.0, np.maximum(power - floor, 0.0)),
+            np.where(above, power, floor),
+            weights,
+            n,
+        )
 
     def risk(self, method, dt: float, order: int) -> float:
         response = method.frequency_response(self.frequency, dt, order)
         ideal = (2j * math.pi * self.frequency) ** order
-        terms = (np.abs(response - ideal) ** 2 * self.signal_power
-                 + np.abs(response) ** 2 * self.noise_power)  # fmt: skip
+        terms = (
+            np.abs(response - ideal) ** 2 * self.signal_power
+            + np.abs(response) ** 2 * self.noise_power
+        )
         return float(math.sqrt(np.sum(self.weights * terms) / self.samples))
 
 
@@ -186,8 +192,9 @@ def pynumdiff_gamma(cutoff_hz: float, dt: float) -> float:
     return math.exp(-1.6 * math.log(cutoff_hz) - 0.71 * math.log(dt) - 5.1)
 
 
-def no_truth_loss(x: np.ndarray, derivative: np.ndarray, dt: float, order: int,
-                  gamma: float) -> float:  # fmt: skip
+def no_truth_loss(
+    x: np.ndarray, derivative: np.ndarray, dt: float, order: int, gamma: float
+) -> float:
     """Data-only loss of an estimated derivative of ``order`` (1 or 2) of samples ``x``:
     RMSE between x and the derivative integrated ``order`` times (constants fitted by least
     squares), plus ``gamma`` times the mean absolute step of the derivative."""
@@ -318,53 +325,78 @@ def tune(
     if region not in REGIONS:
         raise ValueError(f"`region` must be one of {', '.join(REGIONS)}, got {region!r}")
     if region == "whole" and criterion == "no-truth":
-        raise ValueError("the no-truth criterion knows no ends: tune on the whole record with "
-                         "'oracle' or 'pynumdiff', or on region 'interior'")  # fmt: skip
+        raise ValueError(
+            "the no-truth criterion knows no ends: tune on the whole record with "
+            "'oracle' or 'pynumdiff', or on region 'interior'"
+        )
     if order not in (1, 2):
         raise ValueError(f"`order` must be 1 or 2, got {order!r}")
     if criterion in ("no-truth", "pynumdiff"):
         check_cutoff(cutoff_hz, realisations[0], criterion, region)
     if criterion != "oracle" and not all(is_uniform(r) for r in realisations):
-        raise ValueError(f"the {criterion} criterion needs uniform samples; tune irregularly "
-                         "sampled records with 'oracle'")  # fmt: skip
+        raise ValueError(
+            f"the {criterion} criterion needs uniform samples; tune irregularly "
+            "sampled records with 'oracle'"
+        )
     if criterion == "no-truth" and not methods.method_class(name).linear:
-        raise ValueError(f"the no-truth criterion needs a linear method; use 'pynumdiff' for "
-                         f"{name!r}")  # fmt: skip
+        raise ValueError(
+            f"the no-truth criterion needs a linear method; use 'pynumdiff' for {name!r}"
+        )
     if criterion == "surrogate":
-        result = tune(name, _surrogates(realisations, seed), order, "oracle",
-                      max_evaluations=max_evaluations, seed=seed, region=region)  # fmt: skip
+        result = tune(
+            name,
+            _surrogates(realisations, seed),
+            order,
+            "oracle",
+            max_evaluations=max_evaluations,
+            seed=seed,
+            region=region,
+        )
         return dataclasses.replace(result, criterion="surrogate")
     first = realisations[0]
     dt = first.dt_s
     cls = methods.method_class(name)
     fixed = set(cls.irrelevant_params(order))
-    dimensions = [d for d in search_space(name, dt, np.shape(first.x)[0], region)
-                  if d.name not in fixed]  # fmt: skip
+    dimensions = [
+        d for d in search_space(name, dt, np.shape(first.x)[0], region) if d.name not in fixed
+    ]
     gamma = pynumdiff_gamma(cutoff_hz, dt) if criterion == "pynumdiff" else 0.0
     samples = [np.asarray(r.x, dtype=float) for r in realisations]
     # the samples the loss is taken on
-    scored = [np.asarray(r.interior, dtype=bool) if region == "interior"
-              else np.ones(np.shape(r.x)[0], dtype=bool) for r in realisations]  # fmt: skip
-    splits = ([NoiseSplit.of(x[inside], dt, cutoff_hz)
-               for x, inside in zip(samples, scored, strict=True)]
-              if criterion == "no-truth" else None)  # fmt: skip
+    scored = [
+        np.asarray(r.interior, dtype=bool)
+        if region == "interior"
+        else np.ones(np.shape(r.x)[0], dtype=bool)
+        for r in realisations
+    ]
+    splits = (
+        [NoiseSplit.of(x[inside], dt, cutoff_hz) for x, inside in zip(samples, scored, strict=True)]
+        if criterion == "no-truth"
+        else None
+    )
     cache: dict[tuple, float] = {}
     history = []
     # the oracle's losses are compared on a grid of 1e-9 x the RMS of the true derivative
-    scale = (float(np.sqrt(np.mean(first.truth[order][scored[0]] ** 2)))
-             if criterion == "oracle" else None)  # fmt: skip
+    scale = (
+        float(np.sqrt(np.mean(first.truth[order][scored[0]] ** 2)))
+        if criterion == "oracle"
+        else None
+    )
 
     # the first and last sample each loss reads (the ends check is skipped when it cannot
     # reach them: the same losses, bit for bit, see Method.estimate_within)
-    reads = [(int(np.argmax(inside)), int(inside.size - 1 - np.argmax(inside[::-1])))
-             for inside in scored]  # fmt: skip
+    reads = [
+        (int(np.argmax(inside)), int(inside.size - 1 - np.argmax(inside[::-1])))
+        for inside in scored
+    ]
 
     def loss_on(k: int, params: dict[str, Any]) -> float:
         """The loss of ``params`` on realisation ``k``."""
         x, inside = samples[k], scored[k]
         try:
-            estimate = estimate_on(cls(**params), realisations[k], x, orders=(order,),
-                                   reads=reads[k])  # fmt: skip
+            estimate = estimate_on(
+                cls(**params), realisations[k], x, orders=(order,), reads=reads[k]
+            )
         except ValueError:
             return math.inf
         if not estimate.valid[order][inside].all():
@@ -389,8 +421,10 @@ def tune(
     def params_of(vector) -> dict[str, Any]:
         # every parameter: the searched ones from the vector, the others at their defaults,
         # windows snapped to the step, the unused ones at their defaults
-        params = {**defaults, **{d.name: d.value(v) for d, v in zip(dimensions, vector,
-                                                                      strict=True)}}  # fmt: skip
+        params = {
+            **defaults,
+            **{d.name: d.value(v) for d, v in zip(dimensions, vector, strict=True)},
+        }
         return without_unused(snap(params, dt, methods.params_of(cls)))
 
     def loss(vector) -> float:
@@ -416,9 +450,15 @@ def tune(
         best = _evolution_per_choice(dimensions, loss, params_of, max_evaluations, seed)
     value = cache.get(tuple(sorted(best.items())), math.inf) if best else loss([])
     return TuningResult(
-        method=name, params=best, loss=value, criterion=criterion, order=order,
-        evaluations=len(cache), seconds=time.perf_counter() - start, history=tuple(history),
-    )  # fmt: skip
+        method=name,
+        params=best,
+        loss=value,
+        criterion=criterion,
+        order=order,
+        evaluations=len(cache),
+        seconds=time.perf_counter() - start,
+        history=tuple(history),
+    )
 
 
 def _surrogates(realisations, seed: int) -> list:
@@ -433,9 +473,14 @@ def _surrogates(realisations, seed: int) -> list:
         x = np.asarray(realisation.x, dtype=np.float64)
         if x.ndim != 1:
             raise ValueError("the surrogate criterion tunes on one channel (1-D `x`)")
-        drawn += surrogate_records(record_spectrum(x, realisation.dt_s), x, realisation.dt_s,
-                                   SURROGATE_RECORDS, seed=seed + index,
-                                   scored=np.asarray(realisation.interior, dtype=bool))  # fmt: skip
+        drawn += surrogate_records(
+            record_spectrum(x, realisation.dt_s),
+            x,
+            realisation.dt_s,
+            SURROGATE_RECORDS,
+            seed=seed + index,
+            scored=np.asarray(realisation.interior, dtype=bool),
+        )
     return drawn
 
 
@@ -469,10 +514,17 @@ def _evolution_per_choice(dimensions, loss, params_of, max_evaluations, seed) ->
             return vector
 
         result = optimize.differential_evolution(
-            lambda values, assemble=assemble: loss(assemble(values)), bounds,
-            integrality=integrality, seed=seed, popsize=popsize, maxiter=generations, tol=1e-4,
-            polish=False, init="sobol", updating="deferred",
-        )  # fmt: skip
+            lambda values, assemble=assemble: loss(assemble(values)),
+            bounds,
+            integrality=integrality,
+            seed=seed,
+            popsize=popsize,
+            maxiter=generations,
+            tol=1e-4,
+            polish=False,
+            init="sobol",
+            updating="deferred",
+        )
         vector = assemble(list(result.x))
         value = loss(vector)
         if value < best_value or best_vector is None:
@@ -507,9 +559,12 @@ def _grid_and_brent(dimensions, loss, params_of) -> dict[str, Any]:
             k = int(np.argmin(values))
             lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
             if np.isfinite(values[k]) and hi > lo:
-                refined = optimize.minimize_scalar(along, bounds=(lo, hi), method="bounded",
-                                                   options={"xatol": (high - low) * 1e-3,
-                                                            "maxiter": 20})  # fmt: skip
+                refined = optimize.minimize_scalar(
+                    along,
+                    bounds=(lo, hi),
+                    method="bounded",
+                    options={"xatol": (high - low) * 1e-3, "maxiter": 20},
+                )
                 coordinate = refined.x if refined.fun <= values[k] else grid[k]
             else:
                 coordinate = grid[k]

@@ -342,10 +342,15 @@ def write_scenario_record(realisation, path: str | Path) -> Path:
     x = np.asarray(realisation.x)
     if x.ndim != 1:
         raise ValueError(f"{path}: only one-channel scenarios are written, got shape {x.shape}")
-    frame = pd.DataFrame({
-        "t": realisation.t, "x": x, "x_true": realisation.truth[0],
-        "dx_true": realisation.truth[1], "ddx_true": realisation.truth[2],
-    })  # fmt: skip
+    frame = pd.DataFrame(
+        {
+            "t": realisation.t,
+            "x": x,
+            "x_true": realisation.truth[0],
+            "dx_true": realisation.truth[1],
+            "ddx_true": realisation.truth[2],
+        }
+    )
     path.parent.mkdir(parents=True, exist_ok=True)
     if kind == "CSV":
         frame.to_csv(path, index=False, float_format="%.17g")

@@ -52,8 +52,9 @@ class CausalMethod(Method):
         """Samples at the start of a stream whose estimate of ``order`` is not valid (NaN)."""
         return 0
 
-    def stream(self, dt: float, orders=(0, 1, 2), channels: tuple[int, ...] | None = None
-               ) -> Stream:  # fmt: skip
+    def stream(
+        self, dt: float, orders=(0, 1, 2), channels: tuple[int, ...] | None = None
+    ) -> Stream:
         """A :class:`Stream` of this method at step ``dt`` for the derivatives of ``orders``
         (``channels``: the shape of one sample, e.g. ``(3,)``; by default the first chunk's).
 
@@ -124,8 +125,13 @@ class Stream:
     so far.
     """
 
-    def __init__(self, method: CausalMethod, dt: float, orders=(0, 1, 2),
-                 channels: tuple[int, ...] | None = None):  # fmt: skip
+    def __init__(
+        self,
+        method: CausalMethod,
+        dt: float,
+        orders=(0, 1, 2),
+        channels: tuple[int, ...] | None = None,
+    ):
         self.dt = check_dt(dt)
         self.orders = check_orders(orders)
         method = method.at_step(self.dt)

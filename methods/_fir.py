@@ -75,13 +75,16 @@ def apply_central_firs(x: np.ndarray, taps_list) -> list[tuple[np.ndarray, np.nd
     """
     taps_list = [np.asarray(taps, dtype=np.float64) for taps in taps_list]
     n = x.shape[0]
-    long_enough = [taps.ndim == 1 and taps.size % 2 == 1 and _OVERLAP_ADD_FROM <= taps.size <= n
-                   for taps in taps_list]  # fmt: skip
+    long_enough = [
+        taps.ndim == 1 and taps.size % 2 == 1 and _OVERLAP_ADD_FROM <= taps.size <= n
+        for taps in taps_list
+    ]
     shared = [i for i, fits in enumerate(long_enough) if fits]
     if len(shared) < 2:
         return [apply_central_fir(x, taps) for taps in taps_list]
-    filtered = dict(zip(shared, _shared_overlap_add(x, [taps_list[i] for i in shared]),
-                        strict=True))  # fmt: skip
+    filtered = dict(
+        zip(shared, _shared_overlap_add(x, [taps_list[i] for i in shared]), strict=True)
+    )
     out = []
     for i, taps in enumerate(taps_list):
         if i not in filtered:

@@ -123,12 +123,13 @@ def check_frequency(
     allowed = f"{lower}, {upper} Hz"
     if too_high:
         reason = f" ({why_high})" if why_high else ""
-        raise ValueError(f"`{name}` must be below the Nyquist frequency {nyquist:g} Hz for "
-                         f"dt={dt!r} s, i.e. in {allowed}{reason}, got {value_hz!r}")  # fmt: skip
+        raise ValueError(
+            f"`{name}` must be below the Nyquist frequency {nyquist:g} Hz for "
+            f"dt={dt!r} s, i.e. in {allowed}{reason}, got {value_hz!r}"
+        )
     if value_hz < lowest_hz or not value_hz > 0:
         reason = f" ({why_low})" if why_low else ""
-        raise ValueError(f"`{name}` must be in {allowed} at dt={dt!r} s{reason}, "
-                         f"got {value_hz!r}")  # fmt: skip
+        raise ValueError(f"`{name}` must be in {allowed} at dt={dt!r} s{reason}, got {value_hz!r}")
 
 
 def check_signal(x, dt: float, min_samples: int = 2) -> tuple[np.ndarray, float]:

@@ -97,14 +97,16 @@ class ButterworthEuler(Method):
     def check_step(self, dt: float) -> None:
         nyquist = 0.5 / dt
         check_frequency(
-            "cutoff_hz", self.cutoff_hz, dt,
+            "cutoff_hz",
+            self.cutoff_hz,
+            dt,
             lowest_hz=MIN_CUTOFF_FRACTION * nyquist,
             highest_hz=MAX_CUTOFF_FRACTION * nyquist,
             why_high="within 1e-9 of Nyquist the design overflows",
             why_low=f"below {MIN_CUTOFF_FRACTION:g} of the Nyquist frequency the filter's "
             "sections lose their unit gain at 0 Hz to rounding, and from 1e-9 of it the filter "
             "fails",
-        )  # fmt: skip
+        )
 
     def _sos(self, dt: float) -> np.ndarray:
         return _butter_sos(self.order, self.cutoff_hz, float(dt)).copy()  # scipy wants it writable

@@ -469,8 +469,11 @@ def _folded_likelihood(log_params, mirrored: MirroredTimes, *folded_y) -> tuple[
         inverse.flat[:: size + 1] = diagonal
         weights = np.outer(alpha, alpha)
         weights -= inverse
-        sums += (float(np.vdot(weights, correlation)), float(np.vdot(weights, correlation_lag)),
-                 float(alpha @ alpha - diagonal.sum()))  # fmt: skip
+        sums += (
+            float(np.vdot(weights, correlation)),
+            float(np.vdot(weights, correlation_lag)),
+            float(alpha @ alpha - diagonal.sum()),
+        )
     gradient = 0.5 * sums * (signal_variance, signal_variance / length_scale_s**2, noise_variance)
     return value, gradient
 
@@ -502,8 +505,10 @@ def likelihood_optimum(
     # numpy's and scipy's two OpenBLAS copies spinning against each other made each one 20
     # times slower on a shared 2-core machine (measured: 0.13 s against 7 ms at 600 rows).
     with threadpool_limits(limits=1):
-        optima = [optimize.minimize(negative, start, method="L-BFGS-B", jac=True, bounds=bounds)
-                  for start in starts]  # fmt: skip
+        optima = [
+            optimize.minimize(negative, start, method="L-BFGS-B", jac=True, bounds=bounds)
+            for start in starts
+        ]
     return min(optima, key=lambda result: result.fun)
 
 
@@ -542,8 +547,9 @@ def fit_hyperparameters(x, dt: float, fit_samples: int = 400) -> tuple[float, fl
     start = np.log([1.0, min(10 * dt, span / 2), 0.1])
     best = likelihood_optimum(samples * dt, residual[samples] / scale, start, bounds)
     signal_variance, length_scale_s, noise_variance = (float(v) for v in np.exp(best.x))
-    ratio = float(np.clip(math.sqrt(noise_variance / signal_variance), MIN_NOISE_RATIO,
-                          MAX_NOISE_RATIO))  # fmt: skip
+    ratio = float(
+        np.clip(math.sqrt(noise_variance / signal_variance), MIN_NOISE_RATIO, MAX_NOISE_RATIO)
+    )
     return length_scale_s, ratio, math.sqrt(noise_variance) * scale
 
 

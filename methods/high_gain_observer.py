@@ -79,13 +79,19 @@ class HighGainObserver(CausalMethod):
     Dynamic Systems", 3rd ed., Addison-Wesley 1998, section 6.3 (triangle-hold equivalent).
     """
 
-    observer_dimension: int = param(3, choices=(3, 4, 5), integer=True,
-                                    doc="m, states x … x^(m-1)")  # fmt: skip
-    epsilon_s: float = param(0.01, low=0.0, low_open=True, tune_low=2e-4, tune_high=0.2,
-                             log=True, kind="duration", doc="ε, time constant, s")  # fmt: skip
+    observer_dimension: int = param(3, choices=(3, 4, 5), integer=True, doc="m, states x … x^(m-1)")
+    epsilon_s: float = param(
+        0.01,
+        low=0.0,
+        low_open=True,
+        tune_low=2e-4,
+        tune_high=0.2,
+        log=True,
+        kind="duration",
+        doc="ε, time constant, s",
+    )
 
-    presets = {"paper-signal": Preset({"observer_dimension": 3, "epsilon_s": 0.004},
-                                      SOURCE_OURS)}  # fmt: skip
+    presets = {"paper-signal": Preset({"observer_dimension": 3, "epsilon_s": 0.004}, SOURCE_OURS)}
     reference = "Khalil & Praly 2014 (binomial gains, first-order hold)"
 
     def _matrices(self, dt: float):

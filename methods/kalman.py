@@ -79,12 +79,19 @@ def polynomial_model(model_order: int, dt: float, bandwidth_hz: float) -> Kalman
     scaled_noise = noise / np.outer(to_derivatives, to_derivatives)
     reach = omega * dt
     transition = np.array(
-        [[reach ** (j - i) / math.factorial(j - i) if j >= i else 0.0 for j in range(states)]
-         for i in range(states)]
-    )  # fmt: skip
+        [
+            [reach ** (j - i) / math.factorial(j - i) if j >= i else 0.0 for j in range(states)]
+            for i in range(states)
+        ]
+    )
     per_step = np.array([math.factorial(j) / reach**j for j in range(states)])
-    return KalmanModel(F=transition, Q=scaled_noise, R=1.0, to_derivatives=to_derivatives,
-                       per_step_coefficient=per_step)  # fmt: skip
+    return KalmanModel(
+        F=transition,
+        Q=scaled_noise,
+        R=1.0,
+        to_derivatives=to_derivatives,
+        per_step_coefficient=per_step,
+    )
 
 
 PRIOR_SCALE = 1e6
@@ -234,8 +241,9 @@ def _steady_state(model: KalmanModel) -> SteadyState:
 @functools.lru_cache(maxsize=64)
 def _cached_steady_state(f_bytes: bytes, q_bytes: bytes, r: float, states: int) -> SteadyState:
     shape = (states, states)
-    return steady_state(np.frombuffer(f_bytes).reshape(shape),
-                        np.frombuffer(q_bytes).reshape(shape), r)  # fmt: skip
+    return steady_state(
+        np.frombuffer(f_bytes).reshape(shape), np.frombuffer(q_bytes).reshape(shape), r
+    )
 
 
 def _modes(matrix: np.ndarray):
@@ -283,8 +291,19 @@ def _smoother_modes(steady: SteadyState, F: np.ndarray) -> _SmootherModes:
     mixing = inverse_c @ (np.eye(m) - steady.smoother_gain @ F) @ vectors
     coupling = mixing / (1 - poles_c[:, None] * poles[None, :])
     scale = (coupling @ drive) * poles_c
-    return _SmootherModes(poles, vectors, inverse, forward, drive, poles_c, vectors_c,
-                          inverse_c, backward, coupling, scale)  # fmt: skip
+    return _SmootherModes(
+        poles,
+        vectors,
+        inverse,
+        forward,
+        drive,
+        poles_c,
+        vectors_c,
+        inverse_c,
+        backward,
+        coupling,
+        scale,
+    )
 
 
 def _first_order(pole: complex, x: np.ndarray, before: np.ndarray, out: np.ndarray, backward):
@@ -302,8 +321,9 @@ def _first_order(pole: complex, x: np.ndarray, before: np.ndarray, out: np.ndarr
     Real arithmetic, one pass either way (a complex ``lfilter`` costs 3-4 times more)."""
     order = slice(None, None, -1) if backward else slice(None)
     if pole.imag == 0:
-        f = signal.lfilter([1.0], [1.0, -pole.real], x, axis=0,
-                           zi=(pole.real * before.real)[None])[0]  # fmt: skip
+        f = signal.lfilter([1.0], [1.0, -pole.real], x, axis=0, zi=(pole.real * before.real)[None])[
+            0
+        ]
         out[0][order] = np.concatenate([before.real[None], f])
         return [1.0]
     a1, a2 = -2 * pole.real, abs(pole) ** 2
@@ -318,9 +338,13 @@ def _first_order(pole: complex, x: np.ndarray, before: np.ndarray, out: np.ndarr
 
 
 def _steady_passes(
-    z: np.ndarray, steady: SteadyState, F: np.ndarray, before: np.ndarray, components,
+    z: np.ndarray,
+    steady: SteadyState,
+    F: np.ndarray,
+    before: np.ndarray,
+    components,
     modes: _SmootherModes | None = None,
-) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+) -> tuple[np.ndarray, np.ndarray]:
     """The steady filter and smoother over a record z (N, channels) whose filter starts from
     the filtered state ``before`` (m, channels):
 
@@ -348,8 +372,19 @@ def _steady_passes(
     and the whole smoothed state at k = 0 (m, channels). ``modes``: :func:`_smoother_modes`
     of ``steady`` and F, if the caller has them."""
     m = F.shape[0]
-    poles, vectors, inverse, forward, drive, poles_c, vectors_c, inverse_c, backward, \
-        coupling, scale = _smoother_modes(steady, F) if modes is None else modes  # fmt: skip
+    (
+        poles,
+        vectors,
+        inverse,
+        forward,
+        drive,
+        poles_c,
+        vectors_c,
+        inverse_c,
+        backward,
+        coupling,
+        scale,
+    ) = _smoother_modes(steady, F) if modes is None else modes
     start = inverse @ before
     wanted = np.r_[np.asarray(components, dtype=int), np.arange(m)]  # then the state at k = 0
     # s̃_j = Re( Σ_l (W c)_jl y_l + Σ_i W_ji σ_i ), each pair's twin its conjugate
@@ -374,8 +409,9 @@ def _steady_passes(
     for i in backward:
         # σ_{i,k} = b_i μ_i χ_{N-1-k}: χ_κ = μ_i χ_{κ-1} + z_{N-κ} from χ_0 = σ_{i,N-1} / (b_i μ_i),
         # written reversed into the rows' samples 1..N (k = 0..N-1)
-        coefficients = _first_order(poles_c[i], reversed_z, end[i] / scale[i],
-                                    basis[row:, 1:], True)  # fmt: skip
+        coefficients = _first_order(
+            poles_c[i], reversed_z, end[i] / scale[i], basis[row:, 1:], True
+        )
         alpha = (2.0 if poles_c[i].imag > 0 else 1.0) * scale[i] * vectors_c[:, i]
         weights += [(alpha[wanted] * a).real for a in coefficients]
         row += len(coefficients)
@@ -432,8 +468,19 @@ def _blocked_steady_passes(
     count = (n - 1) // block  # whole blocks; the tail keeps 1..B samples
     head = count * block
     modes = _smoother_modes(steady, F)
-    poles, vectors, inverse, forward, drive, poles_c, vectors_c, inverse_c, backward, \
-        coupling, scale = modes  # fmt: skip
+    (
+        poles,
+        vectors,
+        inverse,
+        forward,
+        drive,
+        poles_c,
+        vectors_c,
+        inverse_c,
+        backward,
+        coupling,
+        scale,
+    ) = modes
     lam, mu = poles[forward], poles_c[backward]
     twice_f = np.where(lam.imag > 0, 2.0, 1.0)
     twice_b = np.where(mu.imag > 0, 2.0, 1.0)
@@ -448,8 +495,9 @@ def _blocked_steady_passes(
     carry_b = mu[:, None] ** (block - 1 - steps)[None, :]  # rho_{bB+B-1} into bB + i
     # the recursions' values at block ends, from each block's samples: f_{bB+B-1} gains
     # sum_t lam^(B-1-t) z_{bB+t}; rho_{bB-1} gains sum_t mu^t z_{bB+t}
-    sums = np.concatenate([lam[:, None] ** (block - 1 - steps)[None, :],
-                           mu[:, None] ** steps[None, :]]).T  # fmt: skip
+    sums = np.concatenate(
+        [lam[:, None] ** (block - 1 - steps)[None, :], mu[:, None] ** steps[None, :]]
+    ).T
     sums = np.concatenate([sums.real, sums.imag], axis=1)  # (B, 2(L + I)), real products
     matrices = []
     for j in components:
@@ -469,13 +517,15 @@ def _blocked_steady_passes(
         ends_f = np.empty((count, lam.size), dtype=complex)  # f at each block's last sample
         for mode, pole in enumerate(lam):
             power = pole**block
-            ends_f[:, mode] = signal.lfilter([1.0], [1.0, -power], totals[:, mode],
-                                             zi=[power * first[mode]])[0]  # fmt: skip
+            ends_f[:, mode] = signal.lfilter(
+                [1.0], [1.0, -power], totals[:, mode], zi=[power * first[mode]]
+            )[0]
         # the tail, filtered on from the blocks' last filtered state
         last = _mode_twins(poles, drive[forward] * ends_f[-1], forward)
         filtered = (vectors @ last).real[:, None]
-        tail_out, following = _steady_passes(samples[head:, None], steady, F, filtered,
-                                             components, modes)  # fmt: skip
+        tail_out, following = _steady_passes(
+            samples[head:, None], steady, F, filtered, components, modes
+        )
         out[:, head:, channel] = tail_out[:, :, 0]
         # backward: rho at the tail's first sample from its smoothed state
         at_head = _mode_twins(poles, drive[forward] * (lam * ends_f[-1] + samples[head]), forward)
@@ -487,9 +537,9 @@ def _blocked_steady_passes(
             top = pole * rho[i] + samples[head]  # rho_{head-1}
             ends_b[-1, i] = top
             if count > 1:
-                ends_b[-2::-1, i] = signal.lfilter([1.0], [1.0, -power],
-                                                   totals[:0:-1, lam.size + i],
-                                                   zi=[power * top])[0]  # fmt: skip
+                ends_b[-2::-1, i] = signal.lfilter(
+                    [1.0], [1.0, -power], totals[:0:-1, lam.size + i], zi=[power * top]
+                )[0]
         into_f = np.vstack([first[None, :], ends_f[:-1]])
         design[:, :block] = blocks
         design[:, block:] = np.concatenate(
@@ -533,8 +583,9 @@ def rts_smooth(
         state += gain_columns[k] * (z[k] - state[0])
     smoothed = np.empty((len(components), n, z.shape[1]))  # component by component
     if n - transient >= max(BLOCKED_FROM, BLOCK_STEPS + 1):
-        following = _blocked_steady_passes(z[transient:], gains.steady, F, filtered[-1],
-                                           components, smoothed[:, transient:])  # fmt: skip
+        following = _blocked_steady_passes(
+            z[transient:], gains.steady, F, filtered[-1], components, smoothed[:, transient:]
+        )
     elif n > transient:
         smoothed[:, transient:], following = _steady_passes(
             z[transient:], gains.steady, F, filtered[-1], components
@@ -600,9 +651,11 @@ def irregular_models(
     Qs = np.empty_like(Fs)
     for k, gap in enumerate(gaps):
         raw = np.array(
-            [[gap ** (j - i) / math.factorial(j - i) if j >= i else 0.0 for j in range(states)]
-             for i in range(states)]
-        )  # fmt: skip
+            [
+                [gap ** (j - i) / math.factorial(j - i) if j >= i else 0.0 for j in range(states)]
+                for i in range(states)
+            ]
+        )
         Fs[k] = raw * to_derivatives[None, :] / to_derivatives[:, None]
         noise = np.asarray(Q_continuous_white_noise(dim=states, dt=gap, spectral_density=density))
         Qs[k] = noise / np.outer(to_derivatives, to_derivatives)
@@ -650,9 +703,15 @@ class KalmanSmoother(Method):
     """
 
     bandwidth_hz: float = param(
-        20.0, low=0.0, low_open=True, tune_low=0.5, tune_high=200.0, log=True,
-        doc="-6 dB point of the steady-state smoother, Hz (sets q/R)", kind="frequency",
-    )  # fmt: skip
+        20.0,
+        low=0.0,
+        low_open=True,
+        tune_low=0.5,
+        tune_high=200.0,
+        log=True,
+        doc="-6 dB point of the steady-state smoother, Hz (sets q/R)",
+        kind="frequency",
+    )
     model_order: int = param(
         2, choices=(2, 3), integer=True, doc="2: constant acceleration, 3: constant jerk"
     )
@@ -675,12 +734,14 @@ class KalmanSmoother(Method):
 
     def check_step(self, dt: float) -> None:
         check_frequency(
-            "bandwidth_hz", self.bandwidth_hz, dt,
+            "bandwidth_hz",
+            self.bandwidth_hz,
+            dt,
             lowest_hz=MIN_BANDWIDTH_STEPS / dt,
             why_low=f"the steady-state gains settle in about 6 / (bandwidth_hz * dt) steps: below "
             f"{MIN_BANDWIDTH_STEPS:g} / dt that is over 6e4 steps, and from about 5e-6 / dt "
             "beyond the 10^6-step cap",
-        )  # fmt: skip
+        )
 
     def min_samples(self, dt: float) -> int:
         return 2 * (self.model_order + 1)

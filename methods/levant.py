@@ -95,11 +95,23 @@ class Levant(CausalMethod):
     """
 
     linear = False
-    differentiator_order: int = param(2, low=1, high=5, integer=True, untuned="fixed by the "
-                                      "orders asked for (the lowest n that gives them)",
-                                      doc="n, the highest derivative estimated")  # fmt: skip
-    lipschitz: float = param(1e5, low=0.0, low_open=True, tune_low=1.0, tune_high=1e9,
-                             log=True, doc="L, bound on |x^(n+1)|")  # fmt: skip
+    differentiator_order: int = param(
+        2,
+        low=1,
+        high=5,
+        integer=True,
+        untuned="fixed by the orders asked for (the lowest n that gives them)",
+        doc="n, the highest derivative estimated",
+    )
+    lipschitz: float = param(
+        1e5,
+        low=0.0,
+        low_open=True,
+        tune_low=1.0,
+        tune_high=1e9,
+        log=True,
+        doc="L, bound on |x^(n+1)|",
+    )
 
     presets = {
         "paper-signal": Preset(
@@ -165,8 +177,9 @@ def _step_constants(n: int, lipschitz: float, dt: float) -> tuple[np.ndarray, ..
     powers = (n - j) / (n + 1)
     steps = dt**j  # first row of M
     # M = sum_j dt^j A^j: (M v)_i = sum_{l >= i} dt^(l-i) v_l
-    propagate = np.array([[dt ** (c - r) if c >= r else 0.0 for c in range(n + 1)]
-                          for r in range(n + 1)])  # fmt: skip
+    propagate = np.array(
+        [[dt ** (c - r) if c >= r else 0.0 for c in range(n + 1)] for r in range(n + 1)]
+    )
     for array in (scale, coefficients, powers, steps, propagate):
         array.setflags(write=False)
     return scale, coefficients, powers, steps, propagate

@@ -69,8 +69,15 @@ class BackwardDifference(CausalFirMethod):
     Math. Comp. 51 (1988) 699-706.
     """
 
-    accuracy: int = param(1, low=1, high=6, integer=True, tune_low=1, tune_high=4,
-                          doc="accuracy order p (n + p samples per estimate)")  # fmt: skip
+    accuracy: int = param(
+        1,
+        low=1,
+        high=6,
+        integer=True,
+        tune_low=1,
+        tune_high=4,
+        doc="accuracy order p (n + p samples per estimate)",
+    )
 
     presets = {"euler": Preset({"accuracy": 1}, "Euler's backward difference", by="defaults")}
     reference = "Fornberg 1988 (backward stencils)"
@@ -116,12 +123,26 @@ class CausalButterworth(CausalMethod):
     Q. Guo, M. Gautier, D.-Y. Liu, W. Perruquetti, IEEE/ASME AIM 2015 (the offline baseline).
     """
 
-    order: int = param(2, low=1, high=20, integer=True, tune_low=1, tune_high=8,
-                       doc="filter order")  # fmt: skip
-    cutoff_hz: float = param(20.0, low=0.0, low_open=True, tune_low=1.0, tune_high=200.0,
-                             log=True, kind="frequency", doc="cutoff frequency, Hz")  # fmt: skip
-    difference_accuracy: int = param(1, low=1, high=4, integer=True, tune_low=1, tune_high=2,
-                                     doc="accuracy order of the backward differences")  # fmt: skip
+    order: int = param(2, low=1, high=20, integer=True, tune_low=1, tune_high=8, doc="filter order")
+    cutoff_hz: float = param(
+        20.0,
+        low=0.0,
+        low_open=True,
+        tune_low=1.0,
+        tune_high=200.0,
+        log=True,
+        kind="frequency",
+        doc="cutoff frequency, Hz",
+    )
+    difference_accuracy: int = param(
+        1,
+        low=1,
+        high=4,
+        integer=True,
+        tune_low=1,
+        tune_high=2,
+        doc="accuracy order of the backward differences",
+    )
 
     presets = {
         "paper-signal": Preset(
@@ -214,18 +235,54 @@ class CausalJacobi(CausalFirMethod):
     3015-3032.
     """
 
-    kappa: float = param(1.0, low=0.0, high=400.0, tune_low=0.0, tune_high=10.0,
-                         doc="weight exponent at the oldest end (1+tau)^kappa")  # fmt: skip
-    mu: float = param(1.0, low=0.0, high=400.0, tune_low=0.0, tune_high=10.0,
-                      doc="weight exponent at the newest end (1-tau)^mu")  # fmt: skip
-    q: int = param(1, low=0, high=20, integer=True, tune_low=0, tune_high=4,
-                   doc="fit degree above the derivative order")  # fmt: skip
-    window_s: float = param(0.05, low=0.0, low_open=True, tune_low=0.004, tune_high=0.5,
-                            log=True, kind="window", doc="window T for x and ẋ, s")  # fmt: skip
-    accel_window_s: float = param(0.1, low=0.0, low_open=True, tune_low=0.008, tune_high=0.8,
-                                  log=True, kind="window", doc="window T for ẍ, s")  # fmt: skip
-    delay_s: float = param(0.0, low=0.0, tune_low=0.0, tune_high=0.05,
-                           doc="delay δ of the estimate, s")  # fmt: skip
+    kappa: float = param(
+        1.0,
+        low=0.0,
+        high=400.0,
+        tune_low=0.0,
+        tune_high=10.0,
+        doc="weight exponent at the oldest end (1+tau)^kappa",
+    )
+    mu: float = param(
+        1.0,
+        low=0.0,
+        high=400.0,
+        tune_low=0.0,
+        tune_high=10.0,
+        doc="weight exponent at the newest end (1-tau)^mu",
+    )
+    q: int = param(
+        1,
+        low=0,
+        high=20,
+        integer=True,
+        tune_low=0,
+        tune_high=4,
+        doc="fit degree above the derivative order",
+    )
+    window_s: float = param(
+        0.05,
+        low=0.0,
+        low_open=True,
+        tune_low=0.004,
+        tune_high=0.5,
+        log=True,
+        kind="window",
+        doc="window T for x and ẋ, s",
+    )
+    accel_window_s: float = param(
+        0.1,
+        low=0.0,
+        low_open=True,
+        tune_low=0.008,
+        tune_high=0.8,
+        log=True,
+        kind="window",
+        doc="window T for ẍ, s",
+    )
+    delay_s: float = param(
+        0.0, low=0.0, tune_low=0.0, tune_high=0.05, doc="delay δ of the estimate, s"
+    )
 
     presets = {
         "paper-signal": Preset(
@@ -347,10 +404,19 @@ class KalmanFilter(CausalMethod):
     82 (1960) 35-45; R. Labbe, FilterPy (the model and the filter's equations).
     """
 
-    model_order: int = param(2, choices=(2, 3), integer=True,
-                             doc="2: constant acceleration, 3: constant jerk")  # fmt: skip
-    bandwidth_hz: float = param(5.0, low=0.0, low_open=True, tune_low=0.5, tune_high=100.0,
-                                log=True, kind="frequency", doc="model bandwidth, Hz")  # fmt: skip
+    model_order: int = param(
+        2, choices=(2, 3), integer=True, doc="2: constant acceleration, 3: constant jerk"
+    )
+    bandwidth_hz: float = param(
+        5.0,
+        low=0.0,
+        low_open=True,
+        tune_low=0.5,
+        tune_high=100.0,
+        log=True,
+        kind="frequency",
+        doc="model bandwidth, Hz",
+    )
 
     presets = {"paper-signal": Preset({"model_order": 2, "bandwidth_hz": 10.0}, SOURCE_OURS)}
     reference = "Kalman 1960; filterpy's model"
@@ -436,8 +502,16 @@ class AlphaBetaGamma(CausalMethod):
     Prediction", McGraw-Hill 1969 (fading-memory polynomial filters).
     """
 
-    memory_s: float = param(0.02, low=0.0, low_open=True, tune_low=0.001, tune_high=1.0,
-                            log=True, kind="duration", doc="fading memory time, s")  # fmt: skip
+    memory_s: float = param(
+        0.02,
+        low=0.0,
+        low_open=True,
+        tune_low=0.001,
+        tune_high=1.0,
+        log=True,
+        kind="duration",
+        doc="fading memory time, s",
+    )
 
     presets = {"paper-signal": Preset({"memory_s": 0.02}, SOURCE_OURS)}
     reference = "Brookner 1998 (critically damped g-h-k)"

@@ -117,8 +117,10 @@ class SavitzkyGolay(FirMethod):
         # (it overwrites only the first and last half_width samples), the ends NaN; no end
         # evaluators, a third of a setting's cost in a tuning
         filtered = {order: apply_central_fir(x, self.taps(order, dt)) for order in orders}
-        return ({order: y for order, (y, _) in filtered.items()},
-                {order: keep for order, (_, keep) in filtered.items()})  # fmt: skip
+        return (
+            {order: y for order, (y, _) in filtered.items()},
+            {order: keep for order, (_, keep) in filtered.items()},
+        )
 
     def _estimate_at(self, x, times, orders):
         span = times[-1] - times[0]

@@ -244,11 +244,13 @@ class SmoothingSpline(Method):
 
     def check_step(self, dt: float) -> None:
         check_frequency(
-            "cutoff_hz", self.cutoff_hz, dt,
+            "cutoff_hz",
+            self.cutoff_hz,
+            dt,
             lowest_hz=MIN_CUTOFF_FRACTION * 0.5 / dt,
             why_low=f"at least {MIN_CUTOFF_FRACTION:g} of the Nyquist frequency: lower cutoffs "
             "lose the straight line to rounding",
-        )  # fmt: skip
+        )
 
     def min_samples(self, dt: float) -> int:
         return 5  # the least scipy's make_smoothing_spline, the solver's oracle, takes

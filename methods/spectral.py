@@ -152,8 +152,9 @@ def spectral_derivatives(
     flat = x.reshape(n, -1)
     period = extend(flat[:, :1], extension).shape[0]
     if period >= LEAN_PERIOD:
-        lean = _lean_derivatives(flat, dt, orders, cutoff_hz, rolloff, extension, fit_degree,
-                                 period)  # fmt: skip
+        lean = _lean_derivatives(
+            flat, dt, orders, cutoff_hz, rolloff, extension, fit_degree, period
+        )
         return {order: value.reshape(x.shape) for order, value in lean.items()}
     f = np.fft.rfftfreq(period, dt)
     gain = raised_cosine_lowpass(f, cutoff_hz, rolloff)
@@ -215,8 +216,9 @@ def _lean_derivatives(
                 _fft.rfft(column, -1.0), tau, dt, cutoff_hz, rolloff, fit_degree
             )
             scale = 1.0 / np.sqrt(np.where(np.diag(gram) > 0, np.diag(gram), 1.0))
-            solution = np.linalg.lstsq(gram * np.outer(scale, scale), scale * projections,
-                                       rcond=None)[0]  # fmt: skip
+            solution = np.linalg.lstsq(
+                gram * np.outer(scale, scale), scale * projections, rcond=None
+            )[0]
             coefficients = end_basis(fit_degree) @ (scale * solution)
         else:
             coefficients = polynomial_trend(column[:, None], extension)[:, 0]
@@ -226,9 +228,19 @@ def _lean_derivatives(
         for order in orders:
             if order not in results:
                 results[order] = np.empty((n, channels))
-            estimate = _fft.irfft(spectrum, period, n, functools.partial(
-                derivative_factor, period=period, dt=dt, order=order, cutoff_hz=cutoff_hz,
-                rolloff=rolloff))  # fmt: skip
+            estimate = _fft.irfft(
+                spectrum,
+                period,
+                n,
+                functools.partial(
+                    derivative_factor,
+                    period=period,
+                    dt=dt,
+                    order=order,
+                    cutoff_hz=cutoff_hz,
+                    rolloff=rolloff,
+                ),
+            )
             trend = np.polynomial.polynomial.polyder(coefficients, order)
             estimate += np.polynomial.polynomial.polyval(tau, trend) / span_s**order
             results[order][:, channel] = estimate
@@ -259,10 +271,12 @@ def _stopband_projections(spectrum, tau, dt, cutoff_hz, rolloff, degree) -> np.n
         spectrum, period, period, lambda k: _stopband(k, period, dt, cutoff_hz, rolloff)
     )
     basis = end_basis(degree)
-    return np.array([
-        period * _reflected_inner(np.polynomial.polynomial.polyval(tau, basis[:, j]), filtered)
-        for j in range(degree + 1)
-    ])  # fmt: skip
+    return np.array(
+        [
+            period * _reflected_inner(np.polynomial.polynomial.polyval(tau, basis[:, j]), filtered)
+            for j in range(degree + 1)
+        ]
+    )
 
 
 @functools.lru_cache(maxsize=4)
@@ -294,8 +308,12 @@ def end_basis(degree: int) -> np.ndarray:
     data = []  # rows: the end data, as linear functions of the monomial coefficients
     for derivative in range(0, degree + 1, 2):
         for end in (0.0, 1.0) if derivative < degree else (0.0,):
-            data.append([math.perm(j, derivative) * end ** (j - derivative) if j >= derivative
-                         else 0.0 for j in range(degree + 1)])  # fmt: skip
+            data.append(
+                [
+                    math.perm(j, derivative) * end ** (j - derivative) if j >= derivative else 0.0
+                    for j in range(degree + 1)
+                ]
+            )
     basis = np.linalg.inv(np.array(data))
     basis.flags.writeable = False
     return basis

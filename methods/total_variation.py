@@ -188,8 +188,9 @@ def _interior_point(x: np.ndarray, penalty: float, count: int):
         system[count] += term
         del term
         try:
-            dnu = solveh_banded(system, rhs, overwrite_ab=True, overwrite_b=True,
-                                check_finite=False)  # fmt: skip
+            dnu = solveh_banded(
+                system, rhs, overwrite_ab=True, overwrite_b=True, check_finite=False
+            )
         except (LinAlgError, ValueError):
             break
         del system, rhs
@@ -274,8 +275,9 @@ def _active_set_finish(x, nu, penalty, count):
                 system[count - d, d:][apart] = 0.0
                 del apart
             try:
-                nu[free] = solveh_banded(system, rhs, overwrite_ab=True, overwrite_b=True,
-                                         check_finite=False)  # fmt: skip
+                nu[free] = solveh_banded(
+                    system, rhs, overwrite_ab=True, overwrite_b=True, check_finite=False
+                )
             except (LinAlgError, ValueError):
                 return start
             del system, rhs

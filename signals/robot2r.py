@@ -124,9 +124,12 @@ def mass_matrix(q, parameters=PAPER_PARAMETERS, link1_length_m: float = LINK1_LE
 
 
 def bias_torques(
-    q, qd, parameters=PAPER_PARAMETERS, link1_length_m: float = LINK1_LENGTH_M,
+    q,
+    qd,
+    parameters=PAPER_PARAMETERS,
+    link1_length_m: float = LINK1_LENGTH_M,
     coulomb_slope: float | None = COULOMB_SLOPE,
-) -> np.ndarray:  # fmt: skip
+) -> np.ndarray:
     """Coriolis, centrifugal and friction torques h(q, q̇) (n, 2): Γ = M(q) q̈ + h."""
     q, qd = _check_states(q, qd)
     return regressor(q, qd, np.zeros_like(q), link1_length_m, coulomb_slope) @ np.asarray(
@@ -167,10 +170,14 @@ class PointToPoint:
 
 
 def random_point_to_point(
-    seed: int, duration_s: float, q1_range=(-3.0, 3.0), q2_range=(-2.0, 2.0),
-    peak_velocity_rad_s: float = 2.0, peak_acceleration_rad_s2: float = 2.0,
+    seed: int,
+    duration_s: float,
+    q1_range=(-3.0, 3.0),
+    q2_range=(-2.0, 2.0),
+    peak_velocity_rad_s: float = 2.0,
+    peak_acceleration_rad_s2: float = 2.0,
     rest_s: float = 0.5,
-) -> PointToPoint:  # fmt: skip
+) -> PointToPoint:
     """Random waypoints (uniform in the joint ranges), each move as short as the peak velocity
     and acceleration allow for the joint that moves farthest (a quintic over distance D in
     time T peaks at 15D/8T in velocity and 10D/(√3 T²) in acceleration), until ``duration_s``
@@ -206,9 +213,16 @@ class Motion:
 
 
 def joint_accelerations(
-    q1: float, q2: float, v1: float, v2: float, tau1: float, tau2: float, parameters,
-    link1_length_m: float, coulomb_slope: float,
-) -> tuple[float, float]:  # fmt: skip
+    q1: float,
+    q2: float,
+    v1: float,
+    v2: float,
+    tau1: float,
+    tau2: float,
+    parameters,
+    link1_length_m: float,
+    coulomb_slope: float,
+) -> tuple[float, float]:
     """q̈ = M(q)⁻¹ (τ − h(q, q̇)) for one state, in scalar arithmetic (the simulators' inner
     loop: :func:`mass_matrix` and :func:`bias_torques` written out, Cramer's rule for the
     2×2 solve). ``parameters``: the 8 base parameters as floats."""
@@ -218,8 +232,11 @@ def joint_accelerations(
     skew = link1_length_m * (mx2 * s2 + my2 * c2)  # -d(coupling)/dq2
     m11, m12, m22 = zz1r + zz2 + 2 * coupling, zz2 + coupling, zz2
     two_over_pi = 2 / math.pi
-    h1 = -skew * (2 * v1 * v2 + v2 * v2) + fv1 * v1 + fc1 * two_over_pi * math.atan(
-        coulomb_slope * v1)  # fmt: skip
+    h1 = (
+        -skew * (2 * v1 * v2 + v2 * v2)
+        + fv1 * v1
+        + fc1 * two_over_pi * math.atan(coulomb_slope * v1)
+    )
     h2 = skew * v1 * v1 + fv2 * v2 + fc2 * two_over_pi * math.atan(coulomb_slope * v2)
     r1, r2 = tau1 - h1, tau2 - h2
     det = m11 * m22 - m12 * m12
@@ -227,9 +244,15 @@ def joint_accelerations(
 
 
 def simulate_pd(
-    trajectory: PointToPoint, parameters, link1_length_m: float, coulomb_slope: float,
-    bandwidth_hz: float, step_s: float, sample_every: int, initial_velocity=(0.0, 0.0),
-) -> Motion:  # fmt: skip
+    trajectory: PointToPoint,
+    parameters,
+    link1_length_m: float,
+    coulomb_slope: float,
+    bandwidth_hz: float,
+    step_s: float,
+    sample_every: int,
+    initial_velocity=(0.0, 0.0),
+) -> Motion:
     """Integrate the robot under PD position control with fixed-step RK4 at ``step_s``.
 
     τ = Kp (q_d − q) + Kd (q̇_d − q̇), per joint Kp = J ω², Kd = 2 J ω (critically damped, closed
@@ -269,8 +292,9 @@ def simulate_pd(
         c = derivative(
             i + 1, q1 + half * b[0], q2 + half * b[1], v1 + half * b[2], v2 + half * b[3]
         )
-        d = derivative(i + 2, q1 + step_s * c[0], q2 + step_s * c[1], v1 + step_s * c[2],
-                       v2 + step_s * c[3])  # fmt: skip
+        d = derivative(
+            i + 2, q1 + step_s * c[0], q2 + step_s * c[1], v1 + step_s * c[2], v2 + step_s * c[3]
+        )
         sixth = step_s / 6
         q1 += sixth * (a[0] + 2 * b[0] + 2 * c[0] + d[0])
         q2 += sixth * (a[1] + 2 * b[1] + 2 * c[1] + d[1])
@@ -393,18 +417,28 @@ class RobotScenario:
         margin = self.interior_margin_s
         interior = (truth.t >= margin - 1e-9) & (truth.t <= truth.t[-1] - margin + 1e-9)
         return RobotRealisation(
-            t=truth.t, dt_s=self.sample_dt_s, q=q, tau=tau, truth=truth, seed=int(seed),
+            t=truth.t,
+            dt_s=self.sample_dt_s,
+            q=q,
+            tau=tau,
+            truth=truth,
+            seed=int(seed),
             interior=interior,
-        )  # fmt: skip
+        )
 
 
 @functools.lru_cache(maxsize=8)
 def _simulate_cached(scenario: RobotScenario, validation: bool) -> Motion:
     every = round(scenario.sample_dt_s / scenario.step_s)
     return simulate_pd(
-        scenario.trajectory(validation), scenario.true_parameters, scenario.link1_length_m,
-        scenario.coulomb_slope, scenario.bandwidth_hz, scenario.step_s, every,
-    )  # fmt: skip
+        scenario.trajectory(validation),
+        scenario.true_parameters,
+        scenario.link1_length_m,
+        scenario.coulomb_slope,
+        scenario.bandwidth_hz,
+        scenario.step_s,
+        every,
+    )
 
 
 _ROBOT_SCENARIOS: dict[str, RobotScenario] = {}
@@ -430,22 +464,28 @@ def get_robot_scenario(name: str) -> RobotScenario:
         ) from None
 
 
-register_robot_scenario(RobotScenario(
-    name="robot-sim",
-    description="The paper's 2R robot (table II parameters, L = 0.5 m) under PD control "
-    "(0.5 Hz closed-loop bandwidth) on 30 s of successive quintic moves (|q̇| <= 2 rad/s, "
-    "|q̈| <= 2 rad/s² as in its fig. 5), measured at 100 Hz with a 16-bit encoder, torque noise "
-    "and ripple (Guo et al., AIM 2015, sec. IV).",
-    duration_s=30.0,
-))  # fmt: skip
-register_robot_scenario(RobotScenario(
-    name="robot-sim-short",
-    description="robot-sim on 12 s of motion: a quick version for tests.",
-    duration_s=12.0,
-))  # fmt: skip
-register_robot_scenario(RobotScenario(
-    name="robot-sim-200hz",
-    description="robot-sim measured at 200 Hz instead of 100 Hz.",
-    duration_s=30.0,
-    sample_dt_s=0.005,
-))  # fmt: skip
+register_robot_scenario(
+    RobotScenario(
+        name="robot-sim",
+        description="The paper's 2R robot (table II parameters, L = 0.5 m) under PD control "
+        "(0.5 Hz closed-loop bandwidth) on 30 s of successive quintic moves (|q̇| <= 2 rad/s, "
+        "|q̈| <= 2 rad/s² as in its fig. 5), measured at 100 Hz with a 16-bit encoder, torque noise "
+        "and ripple (Guo et al., AIM 2015, sec. IV).",
+        duration_s=30.0,
+    )
+)
+register_robot_scenario(
+    RobotScenario(
+        name="robot-sim-short",
+        description="robot-sim on 12 s of motion: a quick version for tests.",
+        duration_s=12.0,
+    )
+)
+register_robot_scenario(
+    RobotScenario(
+        name="robot-sim-200hz",
+        description="robot-sim measured at 200 Hz instead of 100 Hz.",
+        duration_s=30.0,
+        sample_dt_s=0.005,
+    )
+)

@@ -433,10 +433,16 @@ def grid_sampling_name(sampling: str, step_s: float) -> str:
 
 def grid_scenario_names() -> list[str]:
     """Every scenario of the grid (noise type x level x step, then the irregular sampling)."""
-    return [grid_scenario_name(kind, level, step) for kind in GRID_NOISE_TYPES
-            for level in GRID_NOISE_LEVELS for step in GRID_STEPS_S] + [
-        grid_sampling_name(sampling, step) for sampling in GRID_SAMPLINGS
-        for step in GRID_SAMPLING_STEPS_S]  # fmt: skip
+    return [
+        grid_scenario_name(kind, level, step)
+        for kind in GRID_NOISE_TYPES
+        for level in GRID_NOISE_LEVELS
+        for step in GRID_STEPS_S
+    ] + [
+        grid_sampling_name(sampling, step)
+        for sampling in GRID_SAMPLINGS
+        for step in GRID_SAMPLING_STEPS_S
+    ]
 
 
 def vanishing_disturbances(scenario: Scenario) -> list[str]:
@@ -514,8 +520,11 @@ def limit_scenario_name(family: str, noise_std: float) -> str:
 
 def limit_scenario_names() -> list[str]:
     """Every limit scenario (signal family x noise level)."""
-    return [limit_scenario_name(family, level) for family in LIMIT_SIGNALS
-            for level in LIMIT_NOISE_LEVELS]  # fmt: skip
+    return [
+        limit_scenario_name(family, level)
+        for family in LIMIT_SIGNALS
+        for level in LIMIT_NOISE_LEVELS
+    ]
 
 
 for _family, _signal in LIMIT_SIGNALS.items():

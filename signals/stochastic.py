@@ -223,8 +223,9 @@ class GaussMarkov(RandomSignal):
             A, root = factors[step]
             z = A @ z + root @ shocks[j + 1]
             path[j + 1] = z
-        columns = [path[:, k] if k < states else np.full(t.size, np.nan)
-                   for k in range(MAX_ORDER + 1)]  # fmt: skip
+        columns = [
+            path[:, k] if k < states else np.full(t.size, np.nan) for k in range(MAX_ORDER + 1)
+        ]
         return Truth(t=t, derivatives=tuple(columns))
 
     def cross_covariance(self, lag_s, order: int, other: int) -> np.ndarray:
@@ -339,8 +340,14 @@ class Matern(GaussMarkov):
 
     def _white_intensity(self) -> float:
         nu = self.smoothness
-        return (self.std**2 * 2 * math.sqrt(math.pi) * math.gamma(nu + 0.5) / math.gamma(nu)
-                * self.rate ** (2 * nu))  # fmt: skip
+        return (
+            self.std**2
+            * 2
+            * math.sqrt(math.pi)
+            * math.gamma(nu + 0.5)
+            / math.gamma(nu)
+            * self.rate ** (2 * nu)
+        )
 
     def model(self) -> Model:
         m = int(self.smoothness + 0.5)  # p + 1 states
@@ -396,8 +403,11 @@ class BandLimited(RandomSignal):
     def __post_init__(self) -> None:
         for name in ("band_hz", "std"):
             object.__setattr__(self, name, check_real(name, getattr(self, name), gt=0))
-        if not isinstance(self.lines, (int, np.integer)) or isinstance(self.lines, bool) \
-                or self.lines < 1:  # fmt: skip
+        if (
+            not isinstance(self.lines, (int, np.integer))
+            or isinstance(self.lines, bool)
+            or self.lines < 1
+        ):
             raise ValueError(f"`lines` must be an integer >= 1, got {self.lines!r}")
 
     @property
@@ -480,8 +490,10 @@ def steady_bounds(signal: GaussMarkov, dt: float, noise_std: float) -> SteadyBou
     residual = filtered - smoother @ predicted @ smoother.T
     smoothed = linalg.solve_discrete_lyapunov(smoother, residual)
     unscale = np.outer(scale, scale)
-    return SteadyBounds(filtered=0.5 * (filtered + filtered.T) / unscale,
-                        smoothed=0.5 * (smoothed + smoothed.T) / unscale)  # fmt: skip
+    return SteadyBounds(
+        filtered=0.5 * (filtered + filtered.T) / unscale,
+        smoothed=0.5 * (smoothed + smoothed.T) / unscale,
+    )
 
 
 def smoother_bound(
@@ -574,14 +586,16 @@ def _posterior(signal, dt: float, samples: int, noise_std: float, causal: bool) 
     for order in signal.derivative_orders:
         prior = float(signal.cross_covariance(0.0, order, order)[0])
         # C[i, k] = Cov(x^(n)(t_k), x(t_i)): lag t_k - t_i
-        cross = linalg.toeplitz(signal.cross_covariance(-lags, order, 0),
-                                signal.cross_covariance(lags, order, 0))  # fmt: skip
+        cross = linalg.toeplitz(
+            signal.cross_covariance(-lags, order, 0), signal.cross_covariance(lags, order, 0)
+        )
         whitened = linalg.solve_triangular(root, cross, lower=True, overwrite_b=True)
         if causal:
             whitened = np.triu(whitened)
         variance[order] = prior - np.einsum("jk,jk->k", whitened, whitened)
         # the estimate W^T L^{-1} y, as one matrix: (L^{-T} W)^T
-        weights[order] = linalg.solve_triangular(root, whitened, lower=True, trans="T",
-                                                 overwrite_b=True).T  # fmt: skip
+        weights[order] = linalg.solve_triangular(
+            root, whitened, lower=True, trans="T", overwrite_b=True
+        ).T
         weights[order].flags.writeable = variance[order].flags.writeable = False
     return Posterior(weights=weights, variance=variance)

@@ -11,8 +11,10 @@ from diffbench.methods._registry import Method, Preset
 
 def tuned_preset(peer: str, **values) -> dict[str, Preset]:
     """The ``paper-signal`` preset of a ``peer`` adapter: the peer tuned by the oracle for ẍ."""
-    source = (f"diffbench, not {peer}'s: oracle tuning (differential evolution) on the held-out "
-              "noise seed 10000, least interior ẍ RMSE")  # fmt: skip
+    source = (
+        f"diffbench, not {peer}'s: oracle tuning (differential evolution) on the held-out "
+        "noise seed 10000, least interior ẍ RMSE"
+    )
     return {"paper-signal": Preset(values, source)}
 
 

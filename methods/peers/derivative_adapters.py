@@ -43,9 +43,16 @@ class Spectral(_Peer):
     """``derivative.Spectral(filter=lambda f: abs(f) < cutoff_hz)``: FFT differentiation of
     the record taken as periodic, with a brick-wall filter."""
 
-    cutoff_hz: float = param(20.0, low=0.0, low_open=True, tune_low=0.5, tune_high=200.0,
-                             log=True, doc="brick-wall cutoff, Hz (below Nyquist)",
-                             kind="frequency")  # fmt: skip
+    cutoff_hz: float = param(
+        20.0,
+        low=0.0,
+        low_open=True,
+        tune_low=0.5,
+        tune_high=200.0,
+        log=True,
+        doc="brick-wall cutoff, Hz (below Nyquist)",
+        kind="frequency",
+    )
     peer_call = "derivative.Spectral"
     presets = tuned_preset("derivative", cutoff_hz=17.3)
 
@@ -63,10 +70,15 @@ class Spline(_Peer):
     """``derivative.Spline(s, order=order)``: scipy's ``UnivariateSpline`` with residual sum
     of squares at most ``s``."""
 
-    s: float = param(1.0, low=0.0, tune_low=1e-6, tune_high=1e3, log=True,
-                     doc="bound on the residual sum of squares (units of x²)")  # fmt: skip
-    order: int = param(3, low=1, high=5, integer=True, tune_low=3, tune_high=5,
-                       doc="spline degree")  # fmt: skip
+    s: float = param(
+        1.0,
+        low=0.0,
+        tune_low=1e-6,
+        tune_high=1e3,
+        log=True,
+        doc="bound on the residual sum of squares (units of x²)",
+    )
+    order: int = param(3, low=1, high=5, integer=True, tune_low=3, tune_high=5, doc="spline degree")
     peer_call = "derivative.Spline"
     presets = tuned_preset("derivative", s=65.0, order=5)
 
@@ -83,10 +95,23 @@ class Kernel(_Peer):
     """``derivative.Kernel(sigma, lmbd, kernel="gaussian")``: Gaussian-process regression with
     a squared-exponential kernel, differentiated analytically."""
 
-    sigma: float = param(0.02, low=0.0, low_open=True, tune_low=1e-3, tune_high=1.0, log=True,
-                         doc="kernel length scale, s")  # fmt: skip
-    lmbd: float = param(0.01, low=0.0, tune_low=1e-6, tune_high=10.0, log=True,
-                        doc="noise variance added to the kernel's diagonal")  # fmt: skip
+    sigma: float = param(
+        0.02,
+        low=0.0,
+        low_open=True,
+        tune_low=1e-3,
+        tune_high=1.0,
+        log=True,
+        doc="kernel length scale, s",
+    )
+    lmbd: float = param(
+        0.01,
+        low=0.0,
+        tune_low=1e-6,
+        tune_high=10.0,
+        log=True,
+        doc="noise variance added to the kernel's diagonal",
+    )
     peer_call = "derivative.Kernel"
     presets = tuned_preset("derivative", sigma=0.0473, lmbd=1.04e-05)
     max_samples_reason = "dense N×N kernel solve, O(N³): about 2 s at 1000 samples"
@@ -104,8 +129,15 @@ class Kalman(_Peer):
     """``derivative.Kalman(alpha)``: the maximum-likelihood smoother of a process whose
     derivative is a Brownian motion; ``alpha`` weighs smoothness against fit."""
 
-    alpha: float = param(1.0, low=0.0, low_open=True, tune_low=1e-10, tune_high=1e3, log=True,
-                         doc="smoothness weight")  # fmt: skip
+    alpha: float = param(
+        1.0,
+        low=0.0,
+        low_open=True,
+        tune_low=1e-10,
+        tune_high=1e3,
+        log=True,
+        doc="smoothness weight",
+    )
     peer_call = "derivative.Kalman"
     presets = tuned_preset("derivative", alpha=4.85e-07)
     max_samples_reason = "dense 2N×2N solve, O(N³): about 0.25 s at 1000 samples"
@@ -124,10 +156,19 @@ class SavitzkyGolay(_Peer):
     least-squares polynomial over ``[t − window_s/2, t + window_s/2]``, the window truncated at
     the ends (a Python loop over samples)."""
 
-    order: int = param(3, low=1, high=9, integer=True, tune_low=1, tune_high=7,
-                       doc="polynomial degree")  # fmt: skip
-    window_s: float = param(0.05, low=0.0, low_open=True, tune_low=0.002, tune_high=2.0,
-                            log=True, doc="window length, s", kind="window")  # fmt: skip
+    order: int = param(
+        3, low=1, high=9, integer=True, tune_low=1, tune_high=7, doc="polynomial degree"
+    )
+    window_s: float = param(
+        0.05,
+        low=0.0,
+        low_open=True,
+        tune_low=0.002,
+        tune_high=2.0,
+        log=True,
+        doc="window length, s",
+        kind="window",
+    )
     peer_call = "derivative.SavitzkyGolay"
     presets = tuned_preset("derivative", order=5, window_s=0.074)
 
@@ -135,15 +176,19 @@ class SavitzkyGolay(_Peer):
         # the peer fits the samples within ±window_s/2: it needs order + 1 of them (fewer gave
         # garbage, not an error: ẋ 120 % off at window_s = 0.05 s, dt = 0.1 s)
         if self.window_s / dt < self.order:
-            raise ValueError(f"`window_s` must hold order + 1 = {self.order + 1} samples at "
-                             f"dt={dt!r} s, i.e. be at least {self.order * dt:.6g} s, got "
-                             f"{self.window_s!r}")  # fmt: skip
+            raise ValueError(
+                f"`window_s` must hold order + 1 = {self.order + 1} samples at "
+                f"dt={dt!r} s, i.e. be at least {self.order * dt:.6g} s, got "
+                f"{self.window_s!r}"
+            )
 
     def min_samples(self, dt: float) -> int:
         steps = self.window_s / dt
         if not steps <= MAX_WINDOW_STEPS:
-            raise ValueError(f"`window_s` must span at most {MAX_WINDOW_STEPS} steps at dt={dt!r} "
-                             f"s, got {self.window_s!r}")  # fmt: skip
+            raise ValueError(
+                f"`window_s` must span at most {MAX_WINDOW_STEPS} steps at dt={dt!r} "
+                f"s, got {self.window_s!r}"
+            )
         return max(self.order + 2, round(steps) + 1)
 
     def _peer(self):

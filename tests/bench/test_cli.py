@@ -18,11 +18,20 @@ ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 def test_list_shows_methods_parameters_presets_and_tasks(capsys):
     assert main(["list"]) == 0
     out = capsys.readouterr().out
-    for text in ("butterworth", "cutoff_hz", "preset paper-signal (by paper): order=6, "
-                 "cutoff_hz=25.0", "savitzky_golay", "window_s", "paper-signal [signal]",
-                 "robot-sim [robot (simulated)]", "identify-dfki [robot (real)]",
-                 "jacobi-influence", "40 grid tasks", "Fornberg (1988); time stamps: native)",
-                 "Guo et al., AIM 2015; time stamps: resampled)"):  # fmt: skip
+    for text in (
+        "butterworth",
+        "cutoff_hz",
+        "preset paper-signal (by paper): order=6, cutoff_hz=25.0",
+        "savitzky_golay",
+        "window_s",
+        "paper-signal [signal]",
+        "robot-sim [robot (simulated)]",
+        "identify-dfki [robot (real)]",
+        "jacobi-influence",
+        "40 grid tasks",
+        "Fornberg (1988); time stamps: native)",
+        "Guo et al., AIM 2015; time stamps: resampled)",
+    ):
         assert text in out
     assert "grid-gaussian-0.02-0.1ms [" not in out
 
@@ -49,15 +58,26 @@ def test_version(capsys):
 
 
 def test_run_writes_store_and_tables_then_resumes(tmp_path, capsys):
-    args = ["run", "paper-signal", "--seeds", "2", "--out", str(tmp_path), "--no-progress",
-            "--methods", "finite_difference,butterworth"]  # fmt: skip
+    args = [
+        "run",
+        "paper-signal",
+        "--seeds",
+        "2",
+        "--out",
+        str(tmp_path),
+        "--no-progress",
+        "--methods",
+        "finite_difference,butterworth",
+    ]
     assert main(args) == 0
     assert "4 cells computed, 0 already stored" in capsys.readouterr().out
     table = (tmp_path / "paper-signal" / "rmse.md").read_text()
     from importlib.metadata import version
 
-    row = (f"| butterworth       | diffbench {version('diffbench')} | native | preset (paper) | "
-           "order=6, cutoff_hz=25 ")  # fmt: skip
+    row = (
+        f"| butterworth       | diffbench {version('diffbench')} | native | preset (paper) | "
+        "order=6, cutoff_hz=25 "
+    )
     assert row in table
     assert "RMSE ẍ interior" in table and "Presets —" not in table
     assert main([*args[:3], "3", *args[4:]]) == 0
@@ -70,8 +90,17 @@ def test_rankings_on_the_whole_record_leave_out_entries_that_mask_their_ends(tmp
     not on the whole record; spectral (every sample) is ranked on both, by its own RMSEs."""
     import pandas as pd
 
-    args = ["run", "paper-signal", "--seeds", "2", "--out", str(tmp_path), "--no-progress",
-            "--methods", "jacobi,spectral"]  # fmt: skip
+    args = [
+        "run",
+        "paper-signal",
+        "--seeds",
+        "2",
+        "--out",
+        str(tmp_path),
+        "--no-progress",
+        "--methods",
+        "jacobi,spectral",
+    ]
     assert main(args) == 0
     ranked = pd.read_csv(tmp_path / "paper-signal" / "ranking.csv")
     rmse = pd.read_csv(tmp_path / "paper-signal" / "rmse.csv").set_index("method")
@@ -88,8 +117,17 @@ def test_rankings_on_the_whole_record_leave_out_entries_that_mask_their_ends(tmp
 
 
 def test_repeated_method_names_run_once(tmp_path, capsys):
-    args = ["run", "paper-signal", "--seeds", "2", "--out", str(tmp_path), "--no-progress",
-            "--methods", "jacobi,jacobi"]  # fmt: skip
+    args = [
+        "run",
+        "paper-signal",
+        "--seeds",
+        "2",
+        "--out",
+        str(tmp_path),
+        "--no-progress",
+        "--methods",
+        "jacobi,jacobi",
+    ]
     assert main(args) == 0
     assert "2 cells computed" in capsys.readouterr().out
     assert len(Store(tmp_path / "store").cells.records) == 2
@@ -111,18 +149,24 @@ def test_repeated_method_names_run_once(tmp_path, capsys):
         ([], "required"),
         (["report", "paper-signal", "--out", "/nonexistent-dir"], "no results store"),
         (["run", "paper-signal", "--out", "/proc/diffbench"], "/proc/diffbench"),
-        (["tune", "all", "paper-signal", "--criteria", "no-truth", "--cutoff-hz", "0"],
-         "--cutoff-hz: must be a finite number > 0, got 0"),
-        (["tune", "all", "paper-signal", "--criteria", "pynumdiff", "--cutoff-hz", "inf"],
-         "--cutoff-hz: must be a finite number > 0, got inf"),
-        (["tune", "all", "paper-signal", "--criteria", "no-truth", "--cutoff-hz", "500"],
-         "`cutoff_hz` must lie in [1.427, 500) Hz"),
+        (
+            ["tune", "all", "paper-signal", "--criteria", "no-truth", "--cutoff-hz", "0"],
+            "--cutoff-hz: must be a finite number > 0, got 0",
+        ),
+        (
+            ["tune", "all", "paper-signal", "--criteria", "pynumdiff", "--cutoff-hz", "inf"],
+            "--cutoff-hz: must be a finite number > 0, got inf",
+        ),
+        (
+            ["tune", "all", "paper-signal", "--criteria", "no-truth", "--cutoff-hz", "500"],
+            "`cutoff_hz` must lie in [1.427, 500) Hz",
+        ),
         (["tune", "all", "paper-signal", "--criteria", "magic"], "--criteria: must be among"),
         (["tune", "all", "paper-signal", "--orders", "3"], "--orders: must be 1, 2 or 1,2"),
         (["tune", "all", "robot-sim"], "task 'robot-sim' cannot be tuned"),
         (["run", "identify-dfki", "--seeds", "7"], "--seeds must be at most 6"),
     ],
-)  # fmt: skip
+)
 def test_bad_input_is_one_line_and_exit_code_2(argv, message, capsys):
     assert main(argv) == 2
     captured = capsys.readouterr()
@@ -138,15 +182,27 @@ def test_an_internal_error_is_a_traceback_not_a_usage_error(tmp_path, monkeypatc
 
     monkeypatch.setattr(runner, "compute_cell", broken)
     with pytest.raises(ValueError, match="a bug deep inside"):
-        main(["run", "paper-signal", "--seeds", "1", "--methods", "jacobi", "--out",
-              str(tmp_path), "--no-progress"])  # fmt: skip
-    script = ("import sys; from diffbench.bench import runner, cli\n"
-              "def broken(cell): raise ValueError('a bug deep inside')\n"
-              "runner.compute_cell = broken\n"
-              f"sys.exit(cli.main(['run', 'paper-signal', '--seeds', '1', '--out', "
-              f"{str(tmp_path / 'p')!r}, '--no-progress']))")  # fmt: skip
-    result = subprocess.run([sys.executable, "-c", script], env=ENV, capture_output=True,
-                            text=True)  # fmt: skip
+        main(
+            [
+                "run",
+                "paper-signal",
+                "--seeds",
+                "1",
+                "--methods",
+                "jacobi",
+                "--out",
+                str(tmp_path),
+                "--no-progress",
+            ]
+        )
+    script = (
+        "import sys; from diffbench.bench import runner, cli\n"
+        "def broken(cell): raise ValueError('a bug deep inside')\n"
+        "runner.compute_cell = broken\n"
+        f"sys.exit(cli.main(['run', 'paper-signal', '--seeds', '1', '--out', "
+        f"{str(tmp_path / 'p')!r}, '--no-progress']))"
+    )
+    result = subprocess.run([sys.executable, "-c", script], env=ENV, capture_output=True, text=True)
     assert result.returncode == 1
     assert "Traceback" in result.stderr and "a bug deep inside" in result.stderr
 
@@ -176,8 +232,17 @@ def test_ctrl_c_keeps_finished_cells_and_exits_130(tmp_path, capsys, monkeypatch
         return real(cell)
 
     monkeypatch.setattr(runner, "compute_cell", interrupted_on_third)
-    args = ["run", "paper-signal", "--seeds", "2", "--out", str(tmp_path), "--no-progress",
-            "--methods", "finite_difference,butterworth"]  # fmt: skip
+    args = [
+        "run",
+        "paper-signal",
+        "--seeds",
+        "2",
+        "--out",
+        str(tmp_path),
+        "--no-progress",
+        "--methods",
+        "finite_difference,butterworth",
+    ]
     assert main(args) == 130
     err = capsys.readouterr().err
     assert "interrupted; 2 cells are stored" in err and "Traceback" not in err
@@ -202,8 +267,18 @@ def tuning_calls(monkeypatch) -> list[str]:
 
 def test_rerun_of_tune_retunes_nothing_and_tuning_is_reproducible(tmp_path, capsys, tuning_calls):
     calls = tuning_calls
-    args = ["tune", "butterworth,finite_difference", "paper-signal", "--criteria",
-            "oracle,no-truth", "--orders", "1,2", "--seeds", "2", "--no-progress"]  # fmt: skip
+    args = [
+        "tune",
+        "butterworth,finite_difference",
+        "paper-signal",
+        "--criteria",
+        "oracle,no-truth",
+        "--orders",
+        "1,2",
+        "--seeds",
+        "2",
+        "--no-progress",
+    ]
     assert main([*args, "--out", str(tmp_path / "a")]) == 0
     assert len(calls) == 8
     assert "8 tunings computed, 0 reused" in capsys.readouterr().out
@@ -228,8 +303,18 @@ def test_rerun_of_grid_retunes_and_recomputes_nothing(tmp_path, capsys, monkeypa
     monkeypatch.setattr(grid, "task_names", lambda: coarse)
     calls = tuning_calls
     chosen = ["finite_difference", "savitzky_golay", "spectral"]  # cheap: the resume is tested
-    args = ["grid", "--orders", "1", "--seeds", "2", "--no-progress", "--out", str(tmp_path),
-            "--methods", ",".join(chosen)]  # fmt: skip
+    args = [
+        "grid",
+        "--orders",
+        "1",
+        "--seeds",
+        "2",
+        "--no-progress",
+        "--out",
+        str(tmp_path),
+        "--methods",
+        ",".join(chosen),
+    ]
     n_methods = len(chosen)
     assert main(args) == 0
     out = capsys.readouterr().out

@@ -31,8 +31,10 @@ def test_a_local_cluster_stores_the_same_numbers_as_a_serial_run(tmp_path):
 
 
 def test_a_tuning_on_dask_is_the_serial_tuning(tmp_path):
-    jobs = [runner.TuningJob("paper-signal", name, "oracle", 1, 10_000, budget=12)
-            for name in ("savitzky_golay", "butterworth")]  # fmt: skip
+    jobs = [
+        runner.TuningJob("paper-signal", name, "oracle", 1, 10_000, budget=12)
+        for name in ("savitzky_golay", "butterworth")
+    ]
     serial, _ = runner.tune_all(jobs, Store(tmp_path / "s"))
     on_dask, summary = runner.tune_all(jobs, Store(tmp_path / "d"), jobs=IN_PROCESS)
     assert summary.computed == 2
@@ -50,24 +52,47 @@ def test_completed_map_on_dask_returns_each_item_with_its_result():
 
 
 def test_the_cli_runs_on_a_scheduler_given_by_address(tmp_path):
-    command = ["run", "paper-signal", "--seeds", "2", "--methods",
-               "finite_difference,savitzky_golay", "--no-progress"]  # fmt: skip
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster:  # fmt: skip
+    command = [
+        "run",
+        "paper-signal",
+        "--seeds",
+        "2",
+        "--methods",
+        "finite_difference,savitzky_golay",
+        "--no-progress",
+    ]
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None
+    ) as cluster:
         address = cluster.scheduler_address
         assert main([*command, "--scheduler", address, "--out", str(tmp_path / "d")]) == 0
     assert main([*command, "--out", str(tmp_path / "s")]) == 0
     on_dask = (tmp_path / "d" / "paper-signal" / "rmse.csv").read_text()
     assert on_dask == (tmp_path / "s" / "paper-signal" / "rmse.csv").read_text()
-    runs = [json.loads(line) for line in (tmp_path / "d" / "store" / "cells.jsonl").open()
-            if '"record":"run"' in line]  # fmt: skip
+    runs = [
+        json.loads(line)
+        for line in (tmp_path / "d" / "store" / "cells.jsonl").open()
+        if '"record":"run"' in line
+    ]
     assert f"--scheduler {address}" in runs[0]["command"]
 
 
 def test_a_scheduler_that_does_not_answer_is_a_usage_error(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(executor, "SCHEDULER_TIMEOUT_S", 1)
-    code = main(["run", "paper-signal", "--seeds", "1", "--methods", "finite_difference",
-                 "--scheduler", "tcp://127.0.0.1:9", "--out", str(tmp_path)])  # fmt: skip
+    code = main(
+        [
+            "run",
+            "paper-signal",
+            "--seeds",
+            "1",
+            "--methods",
+            "finite_difference",
+            "--scheduler",
+            "tcp://127.0.0.1:9",
+            "--out",
+            str(tmp_path),
+        ]
+    )
     assert code == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no Dask scheduler answers at 'tcp://127.0.0.1:9'" in err
@@ -79,9 +104,12 @@ def test_killing_the_client_mid_run_loses_nothing_and_the_rerun_completes(tmp_pa
     after them): the finished cells are stored once each, and the same command completes the
     run to the table of an uninterrupted one."""
     out = tmp_path / "killed"
-    process = subprocess.Popen([*CLI, *RUN, "--executor", "dask", "--jobs", "2", "--out",
-                                str(out)], env=ENV, stdout=subprocess.DEVNULL,
-                               stderr=subprocess.PIPE)  # fmt: skip
+    process = subprocess.Popen(
+        [*CLI, *RUN, "--executor", "dask", "--jobs", "2", "--out", str(out)],
+        env=ENV,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
     _wait_for_cells(out / "store" / "cells.jsonl", 4, process)
     process.send_signal(signal.SIGKILL)
     process.communicate(timeout=60)

@@ -11,16 +11,23 @@ from diffbench.bench import figures
 def _table():
     """Five settings of three methods, as tables.wide_table names them (one NaN mean, one NaN
     half-width)."""
-    return pd.DataFrame({
-        "method": ["jacobi", "jacobi", "butterworth", "finite_difference", "butterworth"],
-        "setting": ["preset (paper)", "oracle-tuned for ẍ", "preset (paper)",
-                    "preset (paper)", "no-truth-tuned for ẋ (f_c 20 Hz)"],
-        "RMSE ẋ interior mean": [4.8, 3.7, 3.8, 197.0, np.nan],
-        "RMSE ẋ interior ci95": [0.33, 0.31, 0.31, 3.6, np.nan],
-        "RMSE ẍ interior mean": [504.0, 400.0, 450.0, 5.4e5, 271.0],
-        "RMSE ẍ interior ci95": [36.0, 30.0, 36.0, 8.2e3, np.nan],
-        "seeds": [20, 20, 20, 20, 20],
-    })  # fmt: skip
+    return pd.DataFrame(
+        {
+            "method": ["jacobi", "jacobi", "butterworth", "finite_difference", "butterworth"],
+            "setting": [
+                "preset (paper)",
+                "oracle-tuned for ẍ",
+                "preset (paper)",
+                "preset (paper)",
+                "no-truth-tuned for ẋ (f_c 20 Hz)",
+            ],
+            "RMSE ẋ interior mean": [4.8, 3.7, 3.8, 197.0, np.nan],
+            "RMSE ẋ interior ci95": [0.33, 0.31, 0.31, 3.6, np.nan],
+            "RMSE ẍ interior mean": [504.0, 400.0, 450.0, 5.4e5, 271.0],
+            "RMSE ẍ interior ci95": [36.0, 30.0, 36.0, 8.2e3, np.nan],
+            "seeds": [20, 20, 20, 20, 20],
+        }
+    )
 
 
 def test_every_registered_method_has_its_own_colour_and_line_style():
@@ -49,9 +56,11 @@ def test_error_figure_data_sorts_each_panel_best_first_and_skips_nan_means():
     points = figures.error_figure_data(_table())
     first = points[points["derivative"] == "ẋ"]
     assert list(first["label"]) == [
-        "jacobi — oracle-tuned for ẍ", "butterworth — preset (paper)", "jacobi — preset (paper)",
+        "jacobi — oracle-tuned for ẍ",
+        "butterworth — preset (paper)",
+        "jacobi — preset (paper)",
         "finite_difference — preset (paper)",
-    ]  # fmt: skip
+    ]
     assert list(first["rank"]) == [0, 1, 2, 3]
     second = points[points["derivative"] == "ẍ"]
     assert second["label"].iloc[0] == "butterworth — no-truth-tuned for ẋ (f_c 20 Hz)"

@@ -33,8 +33,9 @@ def test_grid_has_every_noise_type_level_and_step():
 def test_tuning_job_returns_full_valid_parameters_on_a_coarse_step():
     from diffbench.bench.runner import TuningJob, _tune
 
-    job = TuningJob("grid-gaussian-0.2-10ms", "jacobi", "oracle", 2, grid.TUNING_SEED, None,
-                    grid.BUDGET)  # fmt: skip
+    job = TuningJob(
+        "grid-gaussian-0.2-10ms", "jacobi", "oracle", 2, grid.TUNING_SEED, None, grid.BUDGET
+    )
     params = _tune(job)["params"]
     assert params
     for key in ("window_s", "accel_window_s"):
@@ -46,9 +47,20 @@ def _rows(name, entries, order=2, seeds=8, region="interior"):
     rows = []
     base = np.random.default_rng(0).normal(10, 2, size=seeds)
     for method, shift in entries:
-        rows += [{"task": name, "method": method, "params": "{}", "tuned_order": order,
-                  "metric": "rmse", "order": order, "region": region, "seed": seed,
-                  "value": value + shift} for seed, value in enumerate(base)]  # fmt: skip
+        rows += [
+            {
+                "task": name,
+                "method": method,
+                "params": "{}",
+                "tuned_order": order,
+                "metric": "rmse",
+                "order": order,
+                "region": region,
+                "seed": seed,
+                "value": value + shift,
+            }
+            for seed, value in enumerate(base)
+        ]
     frame = pd.DataFrame(rows)
     frame["tuned_order"] = frame["tuned_order"].astype("Int64")
     return frame
@@ -56,8 +68,9 @@ def _rows(name, entries, order=2, seeds=8, region="interior"):
 
 def test_winners_names_the_best_method_and_tests_significance():
     table = grid.winners(_rows("grid-gaussian-0.2-1ms", (("a", 0.0), ("b", 1.0))), order=2)
-    row = table[(table["noise"] == "gaussian") & (table["level"] == 0.2)
-                & (table["step_ms"] == 1.0)].iloc[0]  # fmt: skip
+    row = table[
+        (table["noise"] == "gaussian") & (table["level"] == 0.2) & (table["step_ms"] == 1.0)
+    ].iloc[0]
     assert row["winner"] == "a" and row["runner_up"] == "b" and bool(row["significant"])
     assert row["detectable_difference_80"] == 0.0  # the same difference on every seed
 
@@ -65,9 +78,21 @@ def test_winners_names_the_best_method_and_tests_significance():
 def _coverage(rows, coverages, order=2):
     """Coverage rows of ``rows``'s entries: ``{method: coverage on every seed}``."""
     seeds = sorted(set(rows["seed"]))
-    extra = [{"task": rows["task"].iloc[0], "method": method, "params": "{}", "tuned_order": order,
-              "metric": "coverage", "order": order, "region": "valid", "seed": seed,
-              "value": value} for method, value in coverages.items() for seed in seeds]  # fmt: skip
+    extra = [
+        {
+            "task": rows["task"].iloc[0],
+            "method": method,
+            "params": "{}",
+            "tuned_order": order,
+            "metric": "coverage",
+            "order": order,
+            "region": "valid",
+            "seed": seed,
+            "value": value,
+        }
+        for method, value in coverages.items()
+        for seed in seeds
+    ]
     frame = pd.concat([rows, pd.DataFrame(extra)], ignore_index=True)
     frame["tuned_order"] = frame["tuned_order"].astype("Int64")
     return frame

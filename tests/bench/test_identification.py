@@ -173,8 +173,17 @@ def test_bad_input(scenario, change, message):
 
 
 def test_run_robot_sim_writes_the_tables_and_rejects_an_unknown_method(tmp_path, capsys):
-    args = ["run", "robot-sim-short", "--seeds", "2", "--out", str(tmp_path), "--methods",
-            "jacobi,butterworth", "--no-progress"]  # fmt: skip
+    args = [
+        "run",
+        "robot-sim-short",
+        "--seeds",
+        "2",
+        "--out",
+        str(tmp_path),
+        "--methods",
+        "jacobi,butterworth",
+        "--no-progress",
+    ]
     assert main(args) == 0
     table = (tmp_path / "robot-sim-short" / "table2.md").read_text()
     assert "| ZZ1R        | 3.496  |" in table and "σ" in table
@@ -200,8 +209,9 @@ def _independent_raw_rmse(method, spec, held_out, estimate_rows):
     w = dfki.tie_a4_to_a6(dfki.pendulum_regressor(q, qd, qdd), lab["l1"], lab["g"])
     x = np.array([estimate_rows[f"estimate.{name}"] for name in dfki.TIED_PARAMETER_NAMES])
     ours = np.sqrt(np.mean((w @ x - record.tau[inside]) ** 2, axis=0))
-    theirs = np.sqrt(np.mean((dfki.lab_model_torques(q, qd, qdd) - record.tau[inside]) ** 2,
-                             axis=0))  # fmt: skip
+    theirs = np.sqrt(
+        np.mean((dfki.lab_model_torques(q, qd, qdd) - record.tau[inside]) ** 2, axis=0)
+    )
     everywhere = estimate.valid[0] & estimate.valid[1] & estimate.valid[2]
     q, qd, qdd = (estimate[order][everywhere] for order in (0, 1, 2))
     w = dfki.tie_a4_to_a6(dfki.pendulum_regressor(q, qd, qdd), lab["l1"], lab["g"])
@@ -225,8 +235,7 @@ def test_dfki_fold_scores_the_measured_torque_at_the_logged_time_stamps():
     for joint in (1, 2):
         raw = rows[f"torque_rmse.joint{joint}"]
         assert raw == pytest.approx(ours[joint - 1], rel=1e-9)
-        assert rows[f"whole_torque_rmse.joint{joint}"] == pytest.approx(whole[joint - 1],
-                                                                        rel=1e-9)  # fmt: skip
+        assert rows[f"whole_torque_rmse.joint{joint}"] == pytest.approx(whole[joint - 1], rel=1e-9)
         assert rows[f"lab_torque_rmse.joint{joint}"] == pytest.approx(lab[joint - 1], rel=1e-12)
         assert raw < 0.3 and raw < 1.5 * lab[joint - 1]
         assert rows[f"filtered_torque_rmse.joint{joint}"] < raw
@@ -306,8 +315,15 @@ def test_nested_settings_never_see_the_held_out_run(tmp_path):
 
 
 def test_run_identify_dfki_cli(tmp_path, capsys):
-    args = ["run", "identify-dfki", "--out", str(tmp_path), "--methods", "finite_difference",
-            "--no-progress"]  # fmt: skip
+    args = [
+        "run",
+        "identify-dfki",
+        "--out",
+        str(tmp_path),
+        "--methods",
+        "finite_difference",
+        "--no-progress",
+    ]
     assert main([*args, "--seeds", "2"]) == 0  # two folds: the report, not the statistics
     summary = (tmp_path / "identify-dfki" / "summary.md").read_text()
     assert "| finite_difference |" in summary and "lab τ RMSE joint 1" in summary
@@ -323,8 +339,17 @@ def test_run_identify_dfki_cli(tmp_path, capsys):
 def test_run_identify_dfki_on_records_a_user_points_at(tmp_path, capsys):
     paths = [str(p) for p in _copies(tmp_path, (0, 2, 4))]
     out = tmp_path / "out"
-    args = ["run", "identify-dfki", "--out", str(out), "--methods", "finite_difference",
-            "--no-progress", "--records", *paths]  # fmt: skip
+    args = [
+        "run",
+        "identify-dfki",
+        "--out",
+        str(out),
+        "--methods",
+        "finite_difference",
+        "--no-progress",
+        "--records",
+        *paths,
+    ]
     assert main(args) == 0
     (folder,) = [p for p in out.iterdir() if p.name.startswith("identify-dfki-")]
     summary = (folder / "summary.md").read_text()

@@ -37,12 +37,20 @@ def test_kalman_at_the_true_model_is_the_optimal_smoother_inside_the_record(name
 def test_no_method_beats_the_bound_beyond_monte_carlo_error(tmp_path, capsys):
     # presets of five methods on 10 realisations of a Matérn 5/2
     name = "limit-matern52-0.01"
-    args = ["run", name, "--seeds", "10", "--out", str(tmp_path), "--no-progress", "--methods",
-            "jacobi,kalman,savitzky_golay,spectral,butterworth"]  # fmt: skip
+    args = [
+        "run",
+        name,
+        "--seeds",
+        "10",
+        "--out",
+        str(tmp_path),
+        "--no-progress",
+        "--methods",
+        "jacobi,kalman,savitzky_golay,spectral,butterworth",
+    ]
     assert main(args) == 0
     table = pd.read_csv(tmp_path / name / "efficiency.csv")
-    assert set(table["method"]) == {"jacobi", "kalman", "savitzky_golay", "spectral",
-                                    "butterworth"}  # fmt: skip
+    assert set(table["method"]) == {"jacobi", "kalman", "savitzky_golay", "spectral", "butterworth"}
     assert len(table) == 5 * 2  # ẋ and ẍ
     assert (table["efficiency"] - table["efficiency_half_width"] <= 1).all()
     assert (table["efficiency"] > 0).all()
@@ -75,8 +83,16 @@ def test_the_optimal_estimator_as_a_method_scores_efficiency_one_exactly():
     rows = []
     for seed in range(4):
         for row in tasks.get_task(scenario.name).score(method, seed):
-            rows.append({"task": scenario.name, "method": "kalman_filter", "params": "{}",
-                         "role": "{}", "seed": seed, **row})  # fmt: skip
+            rows.append(
+                {
+                    "task": scenario.name,
+                    "method": "kalman_filter",
+                    "params": "{}",
+                    "role": "{}",
+                    "seed": seed,
+                    **row,
+                }
+            )
     table = limit.efficiency_table(pd.DataFrame(rows))
     assert list(table["order"]) == [1, 2] and table["causal_bound"].all()
     np.testing.assert_allclose(table["efficiency"], 1.0, rtol=1e-6)
@@ -84,18 +100,34 @@ def test_the_optimal_estimator_as_a_method_scores_efficiency_one_exactly():
 
 
 def test_the_limit_command_tunes_scores_and_writes_the_study(tmp_path, capsys):
-    args = ["limit", "--scenarios", "limit-iwn3-0.01", "--methods", "savitzky_golay,kalman",
-            "--seeds", "4", "--orders", "1", "--out", str(tmp_path), "--no-progress"]  # fmt: skip
+    args = [
+        "limit",
+        "--scenarios",
+        "limit-iwn3-0.01",
+        "--methods",
+        "savitzky_golay,kalman",
+        "--seeds",
+        "4",
+        "--orders",
+        "1",
+        "--out",
+        str(tmp_path),
+        "--no-progress",
+    ]
     assert main(args) == 0
     output = capsys.readouterr().out
     # two methods, oracle- and surrogate-tuned, scored on 4 seeds
     assert "4 tunings computed" in output and "16 cells computed" in output
     table = pd.read_csv(tmp_path / "limit" / "efficiency.csv")
     assert sorted(zip(table["criterion"], table["method"], strict=True)) == [
-        ("oracle", "kalman"), ("oracle", "savitzky_golay"), ("surrogate", "kalman"),
-        ("surrogate", "savitzky_golay")]  # fmt: skip
-    assert (table["order"] == 1).all() and (table["efficiency"] <= 1 + table[
-        "efficiency_half_width"]).all()  # fmt: skip
+        ("oracle", "kalman"),
+        ("oracle", "savitzky_golay"),
+        ("surrogate", "kalman"),
+        ("surrogate", "savitzky_golay"),
+    ]
+    assert (table["order"] == 1).all() and (
+        table["efficiency"] <= 1 + table["efficiency_half_width"]
+    ).all()
     best = (tmp_path / "limit" / "best.md").read_text()
     assert "| iwn3" in best and "kalman" in best
     assert (tmp_path / "limit" / "efficiency.png").stat().st_size > 10_000
@@ -118,8 +150,9 @@ def test_the_surrogate_criterion_tunes_on_the_data_alone():
 
     realisation = signals.get_scenario("limit-iwn3-0.01").realise(10_000)
     first = tuning.tune("savitzky_golay", realisation, 1, "surrogate", max_evaluations=60)
-    blind = dataclasses.replace(realisation, truth=signals.get_scenario(
-        "limit-iwn3-0.01").realise(10_001).truth)  # fmt: skip
+    blind = dataclasses.replace(
+        realisation, truth=signals.get_scenario("limit-iwn3-0.01").realise(10_001).truth
+    )
     again = tuning.tune("savitzky_golay", blind, 1, "surrogate", max_evaluations=60)
     assert first.criterion == "surrogate" and first.params == again.params
     assert first.loss == again.loss
@@ -133,8 +166,11 @@ def test_the_front_is_every_point_no_other_beats_on_both():
     fit[5], roughness[5] = fit[6], roughness[6]  # a tie: the first of equals is kept
     front = limit.non_dominated(fit, roughness)
     for i in range(200):
-        beaten = np.any((fit <= fit[i]) & (roughness <= roughness[i])
-                        & ((fit < fit[i]) | (roughness < roughness[i])))  # fmt: skip
+        beaten = np.any(
+            (fit <= fit[i])
+            & (roughness <= roughness[i])
+            & ((fit < fit[i]) | (roughness < roughness[i]))
+        )
         tied_before = np.any((fit[:i] == fit[i]) & (roughness[:i] == roughness[i]))
         assert front[i] == (not beaten and not tied_before), i
 
@@ -158,15 +194,23 @@ def test_reintegration_and_total_variation_on_exact_values():
     assert limit.reintegration_rmse(x, exact, dt, keep) == pytest.approx(0.0, abs=1e-12)
     # a derivative off by a constant c leaves a residual ramp c·t: RMSE c·T/√12 on T = 799 dt
     assert limit.reintegration_rmse(x, exact + 0.5, dt, keep) == pytest.approx(
-        0.5 * 799 * dt * math.sqrt((1 + 2 / 799) / 12), rel=1e-9)  # fmt: skip
+        0.5 * 799 * dt * math.sqrt((1 + 2 / 799) / 12), rel=1e-9
+    )
     assert limit.total_variation(exact, keep) == pytest.approx(10.0 * 799 * dt, rel=1e-12)
     assert limit.total_variation(np.sign(np.sin(40 * t)), keep) == pytest.approx(
-        2.0 * np.count_nonzero(np.diff(np.sign(np.sin(40 * t[100:900])))))  # fmt: skip
+        2.0 * np.count_nonzero(np.diff(np.sign(np.sin(40 * t[100:900]))))
+    )
 
 
 def test_the_pareto_command_writes_fronts_with_knee_and_oracle(tmp_path, capsys):
-    args = ["pareto", "limit-iwn3-0.01", "--methods", "savitzky_golay,spectral", "--out",
-            str(tmp_path)]  # fmt: skip
+    args = [
+        "pareto",
+        "limit-iwn3-0.01",
+        "--methods",
+        "savitzky_golay,spectral",
+        "--out",
+        str(tmp_path),
+    ]
     assert main(args) == 0
     table = pd.read_csv(tmp_path / "limit" / "pareto_limit-iwn3-0.01.csv")
     assert sorted(table["method"]) == ["savitzky_golay", "spectral"]
@@ -183,14 +227,23 @@ def test_a_brick_wall_just_above_the_band_comes_near_the_band_limited_bound():
     # spectral method oracle-tuned on seed 0 (cut at 24 Hz, the band's edge 20) reaches an
     # efficiency of 0.73 on seeds 1-4 (and not above 1), Savitzky–Golay at its default 0.0001
     scenario = signals.get_scenario("limit-band20-0.01")
-    spectral = methods.get("spectral", cutoff_hz=23.96, rolloff=0.246, extension="odd-fitted",
-                           fit_degree=1)  # fmt: skip
+    spectral = methods.get(
+        "spectral", cutoff_hz=23.96, rolloff=0.246, extension="odd-fitted", fit_degree=1
+    )
     rows = []
     for method in (spectral, methods.get("savitzky_golay")):
         for seed in range(1, 5):
             for row in tasks.get_task(scenario.name).score(method, seed):
-                rows.append({"task": scenario.name, "method": method.name, "params": "{}",
-                             "role": "{}", "seed": seed, **row})  # fmt: skip
+                rows.append(
+                    {
+                        "task": scenario.name,
+                        "method": method.name,
+                        "params": "{}",
+                        "role": "{}",
+                        "seed": seed,
+                        **row,
+                    }
+                )
     table = limit.efficiency_table(pd.DataFrame(rows)).set_index(["method", "order"])
     assert not table["causal_bound"].any()
     assert (table["efficiency"] - table["efficiency_half_width"] <= 1).all()

@@ -12,13 +12,26 @@ from diffbench.signals import robot2r
 
 
 def test_the_loop_with_the_exact_velocity_at_a_fine_step_is_the_continuous_pd_simulation():
-    spec = loop.LoopSpec(duration_s=1.0, control_dt_s=1e-4, substeps=1, bandwidth_hz=5.0,
-                         encoder_step_rad=1e-12, encoder_noise_rad=0.0)  # fmt: skip
+    spec = loop.LoopSpec(
+        duration_s=1.0,
+        control_dt_s=1e-4,
+        substeps=1,
+        bandwidth_hz=5.0,
+        encoder_step_rad=1e-12,
+        encoder_noise_rad=0.0,
+    )
     run = loop.run_loop(spec, None, seed=0)
     assert run.lost_at_s is None
     trajectory = robot2r.random_point_to_point(spec.trajectory_seed, spec.duration_s)
-    motion = robot2r.simulate_pd(trajectory, robot2r.PAPER_PARAMETERS, robot2r.LINK1_LENGTH_M,
-                                 robot2r.COULOMB_SLOPE, 5.0, 1e-4, 1)  # fmt: skip
+    motion = robot2r.simulate_pd(
+        trajectory,
+        robot2r.PAPER_PARAMETERS,
+        robot2r.LINK1_LENGTH_M,
+        robot2r.COULOMB_SLOPE,
+        5.0,
+        1e-4,
+        1,
+    )
     n = run.t.size
     # zero-order hold of the torque over 0.1 ms against a torque evaluated continuously:
     # the motions agree to a small fraction of the tracking error itself
@@ -50,8 +63,10 @@ def test_the_torque_noise_of_backward_differences_follows_their_noise_gain():
         rows = loop.loop_scores(spec, method, 0)
         values = {(r["order"], r["metric"]): r["value"] for r in rows}
         noise[accuracy] = values[(1, "torque_noise_rms")]
-    gains = {p: np.sqrt(np.sum(methods.get("backward_difference", accuracy=p).taps(1, 1.0) ** 2))
-             for p in (1, 2)}  # fmt: skip
+    gains = {
+        p: np.sqrt(np.sum(methods.get("backward_difference", accuracy=p).taps(1, 1.0) ** 2))
+        for p in (1, 2)
+    }
     assert noise[2] / noise[1] == pytest.approx(gains[2] / gains[1], rel=0.05)
 
 
@@ -66,8 +81,17 @@ def test_the_loop_task_reports_every_setting_and_each_method_s_best(tmp_path):
     name = "online-2r-loop-2s"
     if name not in tasks.available_tasks():
         tasks.register_task(tasks.LoopTask(name=name, loop=loop.LoopSpec(duration_s=2.0)))
-    argv = ["run", name, "--methods", "backward_difference", "--seeds", "1",
-            "--out", str(tmp_path), "--no-progress"]  # fmt: skip
+    argv = [
+        "run",
+        name,
+        "--methods",
+        "backward_difference",
+        "--seeds",
+        "1",
+        "--out",
+        str(tmp_path),
+        "--no-progress",
+    ]
     assert main(argv) == 0
     table = pd.read_csv(tmp_path / "online" / "loop.csv")
     assert list(table["setting"]) == [f"p = {p}" for p in (1, 2, 3, 4)]

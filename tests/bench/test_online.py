@@ -17,8 +17,7 @@ DT = 1e-3
 def _white_record(n=4000, sigma=0.1, seed=0):
     t = np.arange(n) * DT
     clean = np.sin(2 * np.pi * 2 * t)
-    truth = {0: clean, 1: 4 * np.pi * np.cos(2 * np.pi * 2 * t),
-             2: -((4 * np.pi) ** 2) * clean}  # fmt: skip
+    truth = {0: clean, 1: 4 * np.pi * np.cos(2 * np.pi * 2 * t), 2: -((4 * np.pi) ** 2) * clean}
     noise = sigma * np.random.default_rng(seed).standard_normal(n)
     interior = np.zeros(n, dtype=bool)
     interior[500:-500] = True
@@ -88,13 +87,23 @@ def test_online_scores_are_for_causal_methods_only():
 def test_the_pareto_front_keeps_the_points_nothing_beats_in_both():
     delays = np.array([1.0, 2.0, 3.0, 2.5, -0.5])
     errors = np.array([10.0, 5.0, 6.0, 5.0, 20.0])
-    np.testing.assert_array_equal(online.pareto_front(delays, errors),
-                                  [True, True, False, False, True])  # fmt: skip
+    np.testing.assert_array_equal(
+        online.pareto_front(delays, errors), [True, True, False, False, True]
+    )
 
 
 def test_the_online_task_runs_stores_and_reports(tmp_path, capsys):
-    argv = ["run", "online-paper-signal", "--methods", "causal_jacobi,backward_difference",
-            "--seeds", "1", "--out", str(tmp_path), "--no-progress"]  # fmt: skip
+    argv = [
+        "run",
+        "online-paper-signal",
+        "--methods",
+        "causal_jacobi,backward_difference",
+        "--seeds",
+        "1",
+        "--out",
+        str(tmp_path),
+        "--no-progress",
+    ]
     assert main(argv) == 0
     folder = tmp_path / "online"
     for name in ("sweep.md", "front.csv", "best.md", "error_vs_delay.png"):
@@ -114,14 +123,23 @@ def test_the_online_task_runs_stores_and_reports(tmp_path, capsys):
 
 
 def test_the_online_task_refuses_an_offline_method(tmp_path, capsys):
-    argv = ["run", "online-paper-signal", "--methods", "jacobi", "--seeds", "1",
-            "--out", str(tmp_path)]  # fmt: skip
+    argv = [
+        "run",
+        "online-paper-signal",
+        "--methods",
+        "jacobi",
+        "--seeds",
+        "1",
+        "--out",
+        str(tmp_path),
+    ]
     assert main(argv) == 2
     assert "jacobi is not causal" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("name", ["causal_jacobi", "alpha_beta_gamma", "high_gain_observer",
-                                  "levant"])  # fmt: skip
+@pytest.mark.parametrize(
+    "name", ["causal_jacobi", "alpha_beta_gamma", "high_gain_observer", "levant"]
+)
 def test_causal_methods_are_tuned_like_the_others(name):
     from diffbench import signals
     from diffbench.bench import tuning
@@ -159,12 +177,26 @@ def test_the_price_of_causality_is_the_best_causal_rmse_over_the_best_offline():
     from diffbench.bench import grid
 
     records = []
-    for method, values in (("kalman_filter", (2.0, 4.0)), ("causal_jacobi", (5.0, 5.0)),
-                           ("spectral", (1.0, 1.0)), ("jacobi", (1.5, 2.5))):  # fmt: skip
+    for method, values in (
+        ("kalman_filter", (2.0, 4.0)),
+        ("causal_jacobi", (5.0, 5.0)),
+        ("spectral", (1.0, 1.0)),
+        ("jacobi", (1.5, 2.5)),
+    ):
         for seed, value in enumerate(values):
-            records.append({"task": "grid-gaussian-0.2-1ms", "method": method, "params": "{}",
-                            "tuned_order": 1.0, "metric": "rmse", "order": 1,
-                            "region": "interior", "seed": seed, "value": value})  # fmt: skip
+            records.append(
+                {
+                    "task": "grid-gaussian-0.2-1ms",
+                    "method": method,
+                    "params": "{}",
+                    "tuned_order": 1.0,
+                    "metric": "rmse",
+                    "order": 1,
+                    "region": "interior",
+                    "seed": seed,
+                    "value": value,
+                }
+            )
     price = grid.causal_price(pd.DataFrame(records), 1)
     assert len(price) == 1
     row = price.iloc[0]

@@ -16,8 +16,10 @@ def _linear_methods():
 
 def test_figure2_gives_the_published_value_at_15_hz():
     data = paper.figure2_data()
-    at15 = {c: np.interp(np.log(15.0), np.log(data["frequency_hz"]), data[c])
-            for c in ("jacobi_db", "butterworth_db", "ideal_db")}  # fmt: skip
+    at15 = {
+        c: np.interp(np.log(15.0), np.log(data["frequency_hz"]), data[c])
+        for c in ("jacobi_db", "butterworth_db", "ideal_db")
+    }
     assert at15["ideal_db"] == pytest.approx(20 * np.log10((2 * np.pi * 15) ** 2), abs=1e-3)
     assert at15["jacobi_db"] == pytest.approx(78.5, abs=0.2)  # the paper's data tip
     # far above the band both differentiators cut off by more than 100 dB below the ideal
@@ -143,8 +145,9 @@ def test_error_profile_on_two_processes_is_the_same_bits():
         totals.append(total)
         return results
 
-    parallel = paper.error_profile_data(3, names=["jacobi", "butterworth"], jobs=2,
-                                        progress=progress)  # fmt: skip
+    parallel = paper.error_profile_data(
+        3, names=["jacobi", "butterworth"], jobs=2, progress=progress
+    )
     pd.testing.assert_frame_equal(serial, parallel, check_exact=True)
     assert totals == [2 * 3]  # one step per method and seed
 
@@ -172,8 +175,13 @@ def test_ends_table_splits_start_middle_and_end():
     start, middle, end = np.full(5, 3.0), np.full(90, 1.0), np.full(5, 4.0)
     acceleration = np.r_[np.full(5, np.nan), middle, np.full(5, np.nan)]
     velocity = np.r_[start, middle, end]
-    profile = pd.DataFrame({"t_s": np.arange(n) * 1e-3, "a_velocity_rms_error": velocity,
-                            "a_acceleration_rms_error": acceleration})  # fmt: skip
+    profile = pd.DataFrame(
+        {
+            "t_s": np.arange(n) * 1e-3,
+            "a_velocity_rms_error": velocity,
+            "a_acceleration_rms_error": acceleration,
+        }
+    )
     table = paper.ends_table(profile, end_fraction=0.05).set_index("n")
     assert table.loc["ẋ", ["start", "middle", "end", "worst end / middle"]].tolist() == [3, 1, 4, 4]
     assert table.loc["ẋ", "coverage"] == 1.0

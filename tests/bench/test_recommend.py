@@ -53,8 +53,10 @@ def test_fitted_lines_are_the_sinusoids_that_made_the_record():
         <= 4 * np.sqrt(12 * sigma**2 / (amplitude**2 * n**3)) / (2 * np.pi * dt)
     )
     assert np.all(np.abs(found_amplitude - amplitude) <= 4 * np.sqrt(2 * sigma**2 / n))
-    assert np.all(np.abs(np.angle(np.exp(1j * (found_phase - phase))))
-                  <= 4 * np.sqrt(8 * sigma**2 / (amplitude**2 * n)))  # fmt: skip
+    assert np.all(
+        np.abs(np.angle(np.exp(1j * (found_phase - phase))))
+        <= 4 * np.sqrt(8 * sigma**2 / (amplitude**2 * n))
+    )
     assert np.std(rest - 0.2 - noise) < 0.01  # the constant stays in what is left
 
 

@@ -42,10 +42,26 @@ def test_an_exported_scenario_reads_back_exactly(user_csv):
 def test_recommend_writes_its_table_derivatives_and_figure(user_csv, tmp_path, capsys):
     path, _, truth = user_csv
     out = tmp_path / "advice"
-    code = main(["recommend", str(path), "--time", "t", "--column", "x", "--dt", str(DT),
-                 "--orders", "1", "--methods", "spectral,savitzky_golay,butterworth",
-                 "--budget", "60",
-                 "--out", str(out)])  # fmt: skip
+    code = main(
+        [
+            "recommend",
+            str(path),
+            "--time",
+            "t",
+            "--column",
+            "x",
+            "--dt",
+            str(DT),
+            "--orders",
+            "1",
+            "--methods",
+            "spectral,savitzky_golay,butterworth",
+            "--budget",
+            "60",
+            "--out",
+            str(out),
+        ]
+    )
     assert code == 0
     printed = capsys.readouterr().out
     assert "x ẋ:" in printed
@@ -90,8 +106,15 @@ def test_recommend_check_scores_the_choice_against_the_truth_and_resumes(tmp_pat
     beat the oracle's tuning by 3 %: 1); PyNumDiff's data-only tuning of the same two, with the
     band read off the periodogram as its cutoff guess, 4.05 and 12.1. A rerun recomputes
     nothing."""
-    argv = ["recommend-check", "--scenarios", "grid-gaussian-0.2-10ms",
-            "--methods", "spectral,butterworth", "--out", str(tmp_path)]  # fmt: skip
+    argv = [
+        "recommend-check",
+        "--scenarios",
+        "grid-gaussian-0.2-10ms",
+        "--methods",
+        "spectral,butterworth",
+        "--out",
+        str(tmp_path),
+    ]
     assert main(argv) == 0
     directory = tmp_path / "recommend-validation"
     table = pd.read_csv(directory / "validation.csv")

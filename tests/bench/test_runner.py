@@ -24,8 +24,9 @@ CLI = [sys.executable, "-m", "diffbench.bench"]
 
 def _cells(seeds=3, names=("finite_difference", "savitzky_golay"), task="paper-signal"):
     entries = get_task(task).lineup(list(names))
-    return [cell for seed in range(seeds) for entry in entries
-            for cell in entry.cells(task, [seed])]  # fmt: skip
+    return [
+        cell for seed in range(seeds) for entry in entries for cell in entry.cells(task, [seed])
+    ]
 
 
 def _values(store: Store) -> np.ndarray:
@@ -36,8 +37,11 @@ def _values(store: Store) -> np.ndarray:
 def test_cells_expand_methods_times_seeds_with_presets_as_roles():
     cells = _cells(seeds=2, names=("butterworth", "kalman"))
     assert [(c.method, c.seed) for c in cells] == [
-        ("butterworth", 0), ("kalman", 0), ("butterworth", 1), ("kalman", 1),
-    ]  # fmt: skip
+        ("butterworth", 0),
+        ("kalman", 0),
+        ("butterworth", 1),
+        ("kalman", 1),
+    ]
     assert cells[0].params == {"order": 6, "cutoff_hz": 25.0}
     assert cells[0].role.label == "preset (paper)" and cells[1].role.label == "preset (diffbench)"
 
@@ -89,8 +93,9 @@ def test_cells_that_differ_only_in_their_role_are_computed_once(tmp_path):
     for cell in presets:
         computed = records[cell.key]
         assert "same_as" not in computed
-        assert computed["scores"] == [[r["order"], r["region"], r["metric"], r["value"]]
-                                      for r in runner.compute_cell(cell)]  # fmt: skip
+        assert computed["scores"] == [
+            [r["order"], r["region"], r["metric"], r["value"]] for r in runner.compute_cell(cell)
+        ]
         for order in (1, 2):
             (twin,) = _retuned([cell], order)
             assert records[twin.key]["scores"] == computed["scores"]
@@ -119,14 +124,22 @@ def test_a_later_run_takes_a_computation_stored_by_the_same_code_only(tmp_path, 
 
 def test_a_stored_computation_with_a_nan_score_is_taken_as_nan(tmp_path, monkeypatch):
     # NaN is stored as null; a cell taking that computation's scores stores null again
-    monkeypatch.setattr(store_module, "provenance",
-                        lambda: {"git_rev": "0123abc", "versions": "numpy=2"})  # fmt: skip
+    monkeypatch.setattr(
+        store_module, "provenance", lambda: {"git_rev": "0123abc", "versions": "numpy=2"}
+    )
     (cell,) = _cells(seeds=1, names=("finite_difference",))
     scores = runner.compute_cell(cell)
     scores[0] = {**scores[0], "value": float("nan")}
     store = Store(tmp_path / "s")
-    store.add_cell(task=cell.task, method=cell.method, params=cell.params, seed=cell.seed,
-                   role=cell.role.as_dict(), scores=scores, elapsed_s=0.1)  # fmt: skip
+    store.add_cell(
+        task=cell.task,
+        method=cell.method,
+        params=cell.params,
+        seed=cell.seed,
+        role=cell.role.as_dict(),
+        scores=scores,
+        elapsed_s=0.1,
+    )
     summary = runner.run(_retuned([cell]), store)
     assert (summary.computed, summary.reused) == (0, 1)
     taken = _by_key(store)[_retuned([cell])[0].key]["scores"]
@@ -136,9 +149,13 @@ def test_a_stored_computation_with_a_nan_score_is_taken_as_nan(tmp_path, monkeyp
 
 def test_a_variant_is_a_different_computation_from_its_base():
     (cell,) = _cells(seeds=1, names=("finite_difference",))
-    variant = runner.Cell(cell.task, cell.method, dict(cell.params), cell.seed,
-                          Role(origin="variant", preset="paper-signal", by="diffbench",
-                               variant="nested"))  # fmt: skip
+    variant = runner.Cell(
+        cell.task,
+        cell.method,
+        dict(cell.params),
+        cell.seed,
+        Role(origin="variant", preset="paper-signal", by="diffbench", variant="nested"),
+    )
     assert variant.computation != cell.computation
     assert _retuned([cell])[0].computation == cell.computation
 
@@ -186,11 +203,28 @@ def test_every_kind_of_task_runs_and_reports(task, tmp_path):
     from diffbench.bench.cli import main
 
     names = "jacobi" if task == "jacobi-influence" else "butterworth,jacobi"
-    assert main(["run", task, "--seeds", "2", "--methods", names, "--out", str(tmp_path),
-                 "--no-progress"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "run",
+                task,
+                "--seeds",
+                "2",
+                "--methods",
+                names,
+                "--out",
+                str(tmp_path),
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
     written = sorted(p.name for p in (tmp_path / task).iterdir())
-    expected = {"paper-signal-clean": "rmse.md", "jacobi-influence": "table1.md",
-                "robot-sim-short": "table2.md"}[task]  # fmt: skip
+    expected = {
+        "paper-signal-clean": "rmse.md",
+        "jacobi-influence": "table1.md",
+        "robot-sim-short": "table2.md",
+    }[task]
     assert expected in written
     assert all(get_task(name).name == name for name in available_tasks())
 
@@ -222,8 +256,15 @@ def _wait_for_cells(path: Path, count: int, process) -> None:
     raise AssertionError("no cells stored in time")
 
 
-RUN = ["run", "paper-signal", "--seeds", "30", "--methods",
-       "finite_difference,savitzky_golay,butterworth", "--no-progress"]  # fmt: skip
+RUN = [
+    "run",
+    "paper-signal",
+    "--seeds",
+    "30",
+    "--methods",
+    "finite_difference,savitzky_golay,butterworth",
+    "--no-progress",
+]
 
 
 @pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="reads /proc (Linux)")
@@ -233,8 +274,12 @@ def test_stopping_a_jobs_run_leaves_no_worker_and_the_rerun_completes(tmp_path, 
     every finished cell is kept, and the same command completes the run to the table of an
     uninterrupted one."""
     out = tmp_path / "killed"
-    process = subprocess.Popen([*CLI, *RUN, "--jobs", "2", "--out", str(out)], env=ENV,
-                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)  # fmt: skip
+    process = subprocess.Popen(
+        [*CLI, *RUN, "--jobs", "2", "--out", str(out)],
+        env=ENV,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
     _wait_for_cells(out / "store" / "cells.jsonl", 4, process)
     workers = _children(process.pid)
     assert len(workers) >= 2
@@ -260,25 +305,38 @@ def test_stopping_a_jobs_run_leaves_no_worker_and_the_rerun_completes(tmp_path, 
 def test_two_concurrent_runs_on_one_store_store_each_cell_once(tmp_path):
     """Two `diffbench run` processes on the same --out at once: every cell once, tables that
     count the seeds right, no error."""
-    command = [*CLI, "run", "paper-signal", "--seeds", "10", "--methods",
-               "finite_difference,savitzky_golay,butterworth", "--no-progress", "--out",
-               str(tmp_path)]  # fmt: skip
-    runs = [subprocess.Popen(command, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                             text=True) for _ in range(2)]  # fmt: skip
+    command = [
+        *CLI,
+        "run",
+        "paper-signal",
+        "--seeds",
+        "10",
+        "--methods",
+        "finite_difference,savitzky_golay,butterworth",
+        "--no-progress",
+        "--out",
+        str(tmp_path),
+    ]
+    runs = [
+        subprocess.Popen(
+            command, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        )
+        for _ in range(2)
+    ]
     outputs = [run.communicate(timeout=300) for run in runs]
     assert [run.returncode for run in runs] == [0, 0], outputs
     lines = (tmp_path / "store" / "cells.jsonl").read_text().splitlines()
     keys = [json.loads(line)["key"] for line in lines if '"record":"cell"' in line]
     assert len(keys) == len(set(keys)) == 30
     table = (tmp_path / "paper-signal" / "rmse.csv").read_text()
-    assert table.count("\n") == 4 and all(",10\n" in row + "\n" for row in
-                                          table.splitlines()[1:])  # fmt: skip
+    assert table.count("\n") == 4 and all(",10\n" in row + "\n" for row in table.splitlines()[1:])
 
 
 def test_tables_print_the_parameters_a_setting_uses_in_declaration_order():
     odd = json.dumps({"extension": "odd", "rolloff": 0.2, "cutoff_hz": 5.0, "fit_degree": 1})
-    fitted = json.dumps({"extension": "odd-fitted", "rolloff": 0.16, "cutoff_hz": 16.3,
-                         "fit_degree": 3})  # fmt: skip
+    fitted = json.dumps(
+        {"extension": "odd-fitted", "rolloff": 0.16, "cutoff_hz": 16.3, "fit_degree": 3}
+    )
     assert tables.readable_params("spectral", odd) == "cutoff_hz=5, rolloff=0.2, extension=odd"
     assert tables.readable_params("spectral", fitted) == (
         "cutoff_hz=16.3, rolloff=0.16, extension=odd-fitted, fit_degree=3"
@@ -303,7 +361,6 @@ def test_completed_map_yields_each_result_as_it_finishes():
     found = list(completed_map(_square_after, items, jobs=2))
     assert sorted(found) == [((3, 1.0), 9), ((4, 0.0), 16), ((5, 0.0), 25)]
     assert found[-1] == ((3, 1.0), 9)
-    assert list(completed_map(_square_after, items[1:], jobs=1)) == [((4, 0.0), 16),
-                                                                     ((5, 0.0), 25)]  # fmt: skip
+    assert list(completed_map(_square_after, items[1:], jobs=1)) == [((4, 0.0), 16), ((5, 0.0), 25)]
     with pytest.raises(ValueError, match="`jobs` must be an integer >= 1, got 0"):
         list(completed_map(_square_after, items, jobs=0))

@@ -16,9 +16,18 @@ from diffbench.bench.stats import (
 )
 
 RANKING_COLUMNS = [
-    "method", "params", "preset", "mean", "ci95", "seeds", "vs_next_mean_difference",
-    "vs_next_t_p", "vs_next_wilcoxon_p", "detectable_difference_80", "significant_vs_next",
-]  # fmt: skip
+    "method",
+    "params",
+    "preset",
+    "mean",
+    "ci95",
+    "seeds",
+    "vs_next_mean_difference",
+    "vs_next_t_p",
+    "vs_next_wilcoxon_p",
+    "detectable_difference_80",
+    "significant_vs_next",
+]
 
 
 def _rows(scores: dict, seeds=None, **extra) -> list[dict]:
@@ -26,9 +35,19 @@ def _rows(scores: dict, seeds=None, **extra) -> list[dict]:
     rows = []
     for method, values in scores.items():
         for seed, value in zip(range(len(values)) if seeds is None else seeds, values, strict=True):
-            rows.append({"method": method, "params": "{}", "preset": f"{method} preset",
-                         "metric": "rmse", "order": 1, "region": "interior", "seed": int(seed),
-                         "value": float(value), **extra})  # fmt: skip
+            rows.append(
+                {
+                    "method": method,
+                    "params": "{}",
+                    "preset": f"{method} preset",
+                    "metric": "rmse",
+                    "order": 1,
+                    "region": "interior",
+                    "seed": int(seed),
+                    "value": float(value),
+                    **extra,
+                }
+            )
     return rows
 
 
@@ -177,8 +196,7 @@ def test_ranking_with_5_seeds_finds_a_large_consistent_difference_the_wilcoxon_r
     rng = np.random.default_rng(7)
     base = rng.normal(5, 1, size=5)
     better, worse = base, base + 1.0 + rng.normal(0, 0.1, size=5)
-    table = ranking(pd.DataFrame(_rows({"worse": worse, "better": better})), "rmse", 1,
-                    "interior")  # fmt: skip
+    table = ranking(pd.DataFrame(_rows({"worse": worse, "better": better})), "rmse", 1, "interior")
     assert list(table["method"]) == ["better", "worse"]
     first = table.loc[0]
     assert first["vs_next_mean_difference"] == pytest.approx(np.mean(better - worse))
@@ -206,8 +224,10 @@ def test_ranking_compares_over_the_common_seeds_only():
 def test_ranking_groups_by_the_keys_given():
     """Two roles of one method at one parameter set are two entries when ``role`` is a key;
     without it, the same rows would be two values per seed for one entry, an error."""
-    rows = pd.DataFrame(_rows({"m": [1.0, 2.0, 3.0]}, role="reference")
-                        + _rows({"m": [2.0, 3.0, 4.5]}, role="candidate"))  # fmt: skip
+    rows = pd.DataFrame(
+        _rows({"m": [1.0, 2.0, 3.0]}, role="reference")
+        + _rows({"m": [2.0, 3.0, 4.5]}, role="candidate")
+    )
     table = ranking(rows, "rmse", 1, "interior", keys=("method", "params", "role"))
     assert list(table.columns[:4]) == ["method", "params", "role", "preset"]
     assert list(table["role"]) == ["reference", "candidate"]

@@ -192,8 +192,15 @@ def one_dict() -> dict:
 def test_a_one_seed_tuning_keeps_the_keys_stored_before_the_seed_count_existed(tmp_path):
     from diffbench.bench.store import cell_key, tuning_key
 
-    fields = {"task": "t", "method": "m", "criterion": "oracle", "order": 1,
-              "tuning_seed": 10_000, "cutoff_hz": None, "budget": None}  # fmt: skip
+    fields = {
+        "task": "t",
+        "method": "m",
+        "criterion": "oracle",
+        "order": 1,
+        "tuning_seed": 10_000,
+        "cutoff_hz": None,
+        "budget": None,
+    }
     # the key as every earlier version wrote it: the seven fields, sorted, compact JSON
     assert tuning_key(**fields) == json.dumps(fields, sort_keys=True, separators=(",", ":"))
     assert tuning_key(**fields, tuning_seeds=1) == tuning_key(**fields)
@@ -213,13 +220,16 @@ def test_a_one_seed_tuning_keeps_the_keys_stored_before_the_seed_count_existed(t
     assert cell_key("t", "m", {}, 0, one.as_dict()) != cell_key("t", "m", {}, 0, five.as_dict())
     store = Store(tmp_path / "store")
     for role in (one, five):
-        assert store.add_cell(task="t", method="m", params={}, seed=0, role=role.as_dict(),
-                              scores=[], elapsed_s=0.0)  # fmt: skip
+        assert store.add_cell(
+            task="t", method="m", params={}, seed=0, role=role.as_dict(), scores=[], elapsed_s=0.0
+        )
     for count in (1, 5):
-        assert store.add_tuning(**fields, tuning_seeds=count, params={"w": count}, loss=0.5,
-                                evaluations=3, seconds=0.1)  # fmt: skip
-    assert store.add_tuning(**fields, region="whole", params={"w": 0}, loss=0.5,
-                            evaluations=3, seconds=0.1)  # fmt: skip
+        assert store.add_tuning(
+            **fields, tuning_seeds=count, params={"w": count}, loss=0.5, evaluations=3, seconds=0.1
+        )
+    assert store.add_tuning(
+        **fields, region="whole", params={"w": 0}, loss=0.5, evaluations=3, seconds=0.1
+    )
     again = Store(tmp_path / "store")
     assert again.set_aside == []
     assert again.find_tuning(**fields)["params"] == {"w": 1}
@@ -227,7 +237,10 @@ def test_a_one_seed_tuning_keeps_the_keys_stored_before_the_seed_count_existed(t
     assert again.find_tuning(**fields, region="whole")["params"] == {"w": 0}
     frame = again.tunings_frame()
     assert sorted(zip(frame["tuning_seeds"], frame["region"], strict=True)) == [
-        (1, "interior"), (1, "whole"), (5, "interior")]  # fmt: skip
+        (1, "interior"),
+        (1, "whole"),
+        (5, "interior"),
+    ]
     with pytest.raises(ValueError, match="`tuning_seeds` must be an integer >= 1"):
         Role.tuned("oracle", 1, 10_000, seeds=0)
     with pytest.raises(ValueError, match="only a tuned role"):
@@ -238,12 +251,27 @@ def test_a_record_with_a_bad_seed_count_is_set_aside(tmp_path):
     from diffbench.bench.store import tuning_key
 
     store = Store(tmp_path / "store")
-    fields = {"task": "t", "method": "m", "criterion": "oracle", "order": 1,
-              "tuning_seed": 10_000, "cutoff_hz": None, "budget": None}  # fmt: skip
+    fields = {
+        "task": "t",
+        "method": "m",
+        "criterion": "oracle",
+        "order": 1,
+        "tuning_seed": 10_000,
+        "cutoff_hz": None,
+        "budget": None,
+    }
     assert store.add_tuning(**fields, params={}, loss=0.5, evaluations=1, seconds=0.1)
-    bad = {"record": "tuning", "key": tuning_key(**fields, tuning_seeds=0), **fields,
-           "tuning_seeds": 0, "params": {}, "loss": 0.5, "evaluations": 1, "seconds": 0.1,
-           "finished_utc": "2026-11-24T00:00:00Z"}  # fmt: skip
+    bad = {
+        "record": "tuning",
+        "key": tuning_key(**fields, tuning_seeds=0),
+        **fields,
+        "tuning_seeds": 0,
+        "params": {},
+        "loss": 0.5,
+        "evaluations": 1,
+        "seconds": 0.1,
+        "finished_utc": "2026-11-24T00:00:00Z",
+    }
     with store.tunings.path.open("a") as handle:
         handle.write(json.dumps(bad) + "\n")
     again = Store(tmp_path / "store")

@@ -10,8 +10,9 @@ from diffbench.bench import timing
 
 def test_a_method_capped_below_the_smallest_size_is_timed_at_its_cap(tmp_path, monkeypatch):
     monkeypatch.setitem(timing.SIZE_CAPS, "finite_difference", (1000, "a cap for this test"))
-    table = timing.throughput(sizes=(2000, 4000), repeats=1,
-                              names=["finite_difference", "savitzky_golay"])  # fmt: skip
+    table = timing.throughput(
+        sizes=(2000, 4000), repeats=1, names=["finite_difference", "savitzky_golay"]
+    )
     timed = table.groupby("method")["samples"].apply(list).to_dict()
     assert timed == {"finite_difference": [1000], "savitzky_golay": [2000, 4000]}
     assert np.all(table["samples_per_s"] > 0)
@@ -39,8 +40,9 @@ def test_peak_memory_is_the_calls_own_allocation():
 
 
 def test_throughput_reports_memory_growth_and_causal_methods(tmp_path):
-    table = timing.throughput(sizes=(20_000, 40_000), repeats=1,
-                              names=["finite_difference", "causal_butterworth"])  # fmt: skip
+    table = timing.throughput(
+        sizes=(20_000, 40_000), repeats=1, names=["finite_difference", "causal_butterworth"]
+    )
     assert set(table["causal"]) == {False, True}
     assert table["peak_mib"].notna().all() or not timing.memory_measurable()
     paths = timing.write_throughput(tmp_path, table)

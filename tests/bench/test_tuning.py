@@ -23,8 +23,9 @@ def _test_methods():
     class _Gain(Method):
         """ẋ̂ = gain·x + (k−3)² + [mode ≠ 'b']: optimum gain = 2.5, k = 3, mode = 'b'."""
 
-        gain: float = param(1.0, low=0.0, low_open=True, tune_low=0.1, tune_high=10.0,
-                            log=True, doc="test")  # fmt: skip
+        gain: float = param(
+            1.0, low=0.0, low_open=True, tune_low=0.1, tune_high=10.0, log=True, doc="test"
+        )
         k: int = param(1, low=1, high=9, integer=True, tune_low=1, tune_high=9, doc="test")
         mode: str = param("a", choices=("a", "b", "c"), doc="test")
         presets = {"x": Preset({"gain": 1.0}, "test")}
@@ -36,8 +37,9 @@ def _test_methods():
 
     @register("_test_gain_1d")
     class _Gain1D(Method):
-        gain: float = param(1.0, low=0.0, low_open=True, tune_low=0.1, tune_high=10.0,
-                            log=True, doc="test")  # fmt: skip
+        gain: float = param(
+            1.0, low=0.0, low_open=True, tune_low=0.1, tune_high=10.0, log=True, doc="test"
+        )
 
         def _estimate(self, x, dt, orders):
             valid = np.ones(x.shape[0], dtype=bool)
@@ -117,16 +119,19 @@ def test_spectral_risk_predicts_the_actual_error_of_a_linear_method():
     scenario = signals.get_scenario("damped-gaussian")
     realisation = scenario.realise(3)
     inside = realisation.interior
-    for name, params in (("savitzky_golay", {"window_s": 0.06, "degree": 3}),
-                         ("butterworth", {"order": 4, "cutoff_hz": 30.0})):  # fmt: skip
+    for name, params in (
+        ("savitzky_golay", {"window_s": 0.06, "degree": 3}),
+        ("butterworth", {"order": 4, "cutoff_hz": 30.0}),
+    ):
         method = methods.get(name, **params)
         for order in (1, 2):
             estimate = method(realisation.x, realisation.dt_s, orders=(order,))
             actual = np.sqrt(
                 np.mean((estimate[order][inside] - realisation.truth[order][inside]) ** 2)
             )
-            predicted = tuning.spectral_risk(method, realisation.x[inside], realisation.dt_s,
-                                             order, cutoff_hz=20.0)  # fmt: skip
+            predicted = tuning.spectral_risk(
+                method, realisation.x[inside], realisation.dt_s, order, cutoff_hz=20.0
+            )
             assert predicted == pytest.approx(actual, rel=0.25), (name, order)
 
 
@@ -154,8 +159,20 @@ def test_bad_tuning_requests():
 
 
 def test_tune_cli_tunes_on_one_seed_and_scores_on_others(tmp_path, capsys):
-    args = ["tune", "savitzky_golay", "paper-signal", "--criteria", "oracle", "--orders", "1",
-            "--seeds", "3", "--out", str(tmp_path), "--no-progress"]  # fmt: skip
+    args = [
+        "tune",
+        "savitzky_golay",
+        "paper-signal",
+        "--criteria",
+        "oracle",
+        "--orders",
+        "1",
+        "--seeds",
+        "3",
+        "--out",
+        str(tmp_path),
+        "--no-progress",
+    ]
     assert main(args) == 0
     from diffbench.bench.store import Store
 
@@ -197,9 +214,22 @@ def test_realisations_tuned_together_must_agree():
 def test_tune_cli_on_k_seeds_stores_the_count_and_labels_the_rows(tmp_path, capsys):
     from diffbench.bench.store import Store
 
-    args = ["tune", "savitzky_golay", "paper-signal", "--orders", "1", "--seeds", "2",
-            "--tuning-seeds", "3", "--budget", "150", "--out", str(tmp_path),
-            "--no-progress"]  # fmt: skip
+    args = [
+        "tune",
+        "savitzky_golay",
+        "paper-signal",
+        "--orders",
+        "1",
+        "--seeds",
+        "2",
+        "--tuning-seeds",
+        "3",
+        "--budget",
+        "150",
+        "--out",
+        str(tmp_path),
+        "--no-progress",
+    ]
     assert main(args) == 0
     store = Store(tmp_path / "store")
     (tuned,) = store.tunings.records.values()
@@ -262,15 +292,15 @@ def test_tuning_result_is_unchanged_by_last_bit_perturbations_of_the_data():
     for seed in range(8):
         rng = np.random.default_rng(seed)
         nudged_x = r.x * (1 + 2e-16 * rng.standard_normal(r.x.shape))
-        nudged = tuning.tune("savitzky_golay", dataclasses.replace(r, x=nudged_x), 1, "oracle",
-                             max_evaluations=150)  # fmt: skip
+        nudged = tuning.tune(
+            "savitzky_golay", dataclasses.replace(r, x=nudged_x), 1, "oracle", max_evaluations=150
+        )
         assert nudged.params == first.params, seed
 
 
 def test_edge_treatments_are_tuned_on_the_whole_record_only():
     # spectral's extension and fit_degree change only the ends, which the interior does not see
-    assert [d.name for d in tuning.search_space("spectral", 1e-3, 1001)] == ["cutoff_hz",
-                                                                             "rolloff"]  # fmt: skip
+    assert [d.name for d in tuning.search_space("spectral", 1e-3, 1001)] == ["cutoff_hz", "rolloff"]
     whole = tuning.search_space("spectral", 1e-3, 1001, "whole")
     assert [d.name for d in whole] == ["cutoff_hz", "rolloff", "extension", "fit_degree"]
     assert whole[3].kind == "choice" and whole[3].choices == (0, 1, 2, 3)  # a small integer
@@ -317,8 +347,20 @@ def test_whole_record_tuning_refuses_masked_ends_and_the_no_truth_criterion(tmp_
         tuning.tune("spectral", r, 1, "no-truth", cutoff_hz=20.0, region="whole")
     with pytest.raises(ValueError, match="`region` must be one of interior, whole"):
         tuning.tune("spectral", r, 1, region="ends")
-    args = ["tune", "spectral", "paper-signal", "--orders", "1", "--seeds", "2", "--region",
-            "whole", "--out", str(tmp_path), "--no-progress"]  # fmt: skip
+    args = [
+        "tune",
+        "spectral",
+        "paper-signal",
+        "--orders",
+        "1",
+        "--seeds",
+        "2",
+        "--region",
+        "whole",
+        "--out",
+        str(tmp_path),
+        "--no-progress",
+    ]
     assert main([*args, "--criteria", "oracle,no-truth"]) == 2
     assert "--region whole cannot go with the no-truth criterion" in capsys.readouterr().err
     assert main(args) == 0
@@ -344,15 +386,36 @@ def test_tuning_table_keeps_each_tuning_apart_on_the_interior_and_the_whole_reco
         rows = []
         for seed, shift in enumerate((-1.0, 1.0)):
             for region, value in (("interior", interior), ("valid", whole)):
-                rows.append({"method": "m", "origin": origin, "criterion": criterion,
-                             "tuned_order": 1 if origin == "tuned" else None,
-                             "tuning_seeds": seeds, "tuned_region": region_tuned, "order": 1,
-                             "region": region, "metric": "rmse", "seed": seed,
-                             "value": value + shift})  # fmt: skip
-            rows.append({"method": "m", "origin": origin, "criterion": criterion,
-                         "tuned_order": 1 if origin == "tuned" else None, "tuning_seeds": seeds,
-                         "tuned_region": region_tuned, "order": 1, "region": "valid",
-                         "metric": "coverage", "seed": seed, "value": coverage})  # fmt: skip
+                rows.append(
+                    {
+                        "method": "m",
+                        "origin": origin,
+                        "criterion": criterion,
+                        "tuned_order": 1 if origin == "tuned" else None,
+                        "tuning_seeds": seeds,
+                        "tuned_region": region_tuned,
+                        "order": 1,
+                        "region": region,
+                        "metric": "rmse",
+                        "seed": seed,
+                        "value": value + shift,
+                    }
+                )
+            rows.append(
+                {
+                    "method": "m",
+                    "origin": origin,
+                    "criterion": criterion,
+                    "tuned_order": 1 if origin == "tuned" else None,
+                    "tuning_seeds": seeds,
+                    "tuned_region": region_tuned,
+                    "order": 1,
+                    "region": "valid",
+                    "metric": "coverage",
+                    "seed": seed,
+                    "value": coverage,
+                }
+            )
         return rows
 
     frame = pd.DataFrame(
@@ -421,8 +484,12 @@ def test_the_tuner_skipping_the_ends_check_tunes_as_the_full_calls_do(name, monk
     it (Method.estimate_within); the tuning is the same as with every full call."""
     realisation = signals.get_scenario("paper-signal").realise(2)
     skipping = tuning.tune(name, realisation, 1, "oracle", max_evaluations=60)
-    monkeypatch.setattr(Method, "estimate_within",
-                        lambda self, x, dt, orders, first, last: self(x, dt, orders))  # fmt: skip
+    monkeypatch.setattr(
+        Method, "estimate_within", lambda self, x, dt, orders, first, last: self(x, dt, orders)
+    )
     full = tuning.tune(name, realisation, 1, "oracle", max_evaluations=60)
     assert (skipping.params, skipping.loss, skipping.evaluations) == (
-        full.params, full.loss, full.evaluations)  # fmt: skip
+        full.params,
+        full.loss,
+        full.evaluations,
+    )

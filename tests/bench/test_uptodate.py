@@ -66,8 +66,17 @@ def test_the_key_follows_options_and_the_bytes_of_the_files_read(tmp_path):
 def test_a_rerun_of_run_skips_the_report_until_a_cell_is_added(tmp_path, capsys, monkeypatch):
     from diffbench.bench import tasks
 
-    args = ["run", "paper-signal", "--seeds", "1", "--out", str(tmp_path), "--no-progress",
-            "--methods", "finite_difference"]  # fmt: skip
+    args = [
+        "run",
+        "paper-signal",
+        "--seeds",
+        "1",
+        "--out",
+        str(tmp_path),
+        "--no-progress",
+        "--methods",
+        "finite_difference",
+    ]
     assert main(args) == 0
     listed = capsys.readouterr().out.splitlines()[1:]
     reports = []

@@ -238,10 +238,17 @@ def test_the_ends_of_the_step_range_give_the_millisecond_results_rescaled(name, 
     values = dict(methods.preset_spec(name, next(iter(cls.presets), "default")).values)
 
     def at(factor):
-        return methods.get(name, **{
-            key: value * factor if key.endswith("_s") else value / factor
-            if key.endswith("_hz") else value for key, value in values.items()
-        })  # fmt: skip
+        return methods.get(
+            name,
+            **{
+                key: value * factor
+                if key.endswith("_s")
+                else value / factor
+                if key.endswith("_hz")
+                else value
+                for key, value in values.items()
+            },
+        )
 
     base, scaled = at(1.0)(x, 1e-3), at(scale)(x, dt)
     tolerance = 1e-6 if name == "gaussian_process_ml" else 1e-10
@@ -249,5 +256,6 @@ def test_the_ends_of_the_step_range_give_the_millisecond_results_rescaled(name, 
         np.testing.assert_array_equal(scaled.valid[order], base.valid[order])
         valid = base.valid[order]
         peak = np.max(np.abs(base[order][valid]))
-        np.testing.assert_allclose(scaled[order][valid] * scale**order, base[order][valid],
-                                   rtol=0, atol=tolerance * peak)  # fmt: skip
+        np.testing.assert_allclose(
+            scaled[order][valid] * scale**order, base[order][valid], rtol=0, atol=tolerance * peak
+        )

@@ -25,9 +25,15 @@ def _record(n=1500, channels=(), seed=0):
 
 
 def test_the_causal_methods_are_registered_apart_from_the_offline_ones():
-    assert set(CAUSAL) == {"alpha_beta_gamma", "backward_difference", "causal_butterworth",
-                           "causal_jacobi", "high_gain_observer", "kalman_filter",
-                           "levant"}  # fmt: skip
+    assert set(CAUSAL) == {
+        "alpha_beta_gamma",
+        "backward_difference",
+        "causal_butterworth",
+        "causal_jacobi",
+        "high_gain_observer",
+        "kalman_filter",
+        "levant",
+    }
     assert not set(CAUSAL) & set(methods.available())
     assert methods.available(causal=None) == sorted(set(CAUSAL) | set(methods.available()))
     assert all(methods.method_class(name).causal for name in CAUSAL)
@@ -35,8 +41,11 @@ def test_the_causal_methods_are_registered_apart_from_the_offline_ones():
 
 @pytest.mark.parametrize("name", CAUSAL)
 def test_changing_later_samples_never_changes_an_estimate(name):
-    method = methods.preset(name, "paper-signal") if "paper-signal" in methods.method_class(
-        name).presets else methods.get(name)  # fmt: skip
+    method = (
+        methods.preset(name, "paper-signal")
+        if "paper-signal" in methods.method_class(name).presets
+        else methods.get(name)
+    )
     x = _record(800)
     before = method(x, DT)
     for cut in (0, 1, 400, 797):  # (causal_jacobi with mu > 0 gives the newest sample no weight)
@@ -44,8 +53,9 @@ def test_changing_later_samples_never_changes_an_estimate(name):
         changed[cut + 1 :] += np.random.default_rng(cut).standard_normal(changed.size - cut - 1)
         after = method(changed, DT)
         for order in (0, 1, 2):
-            assert np.array_equal(after[order][: cut + 1], before[order][: cut + 1],
-                                  equal_nan=True), (name, cut, order)  # fmt: skip
+            assert np.array_equal(
+                after[order][: cut + 1], before[order][: cut + 1], equal_nan=True
+            ), (name, cut, order)
         # and the change is seen after the cut (levant's ẍ sees only the sign of its error)
         assert not np.array_equal(after[0][cut + 1 :], before[0][cut + 1 :], equal_nan=True)
 
@@ -63,8 +73,9 @@ def test_a_stream_in_chunks_of_any_size_gives_the_batch_result_bit_for_bit(name,
         for order in (0, 1, 2):
             streamed = np.concatenate([piece[order] for piece in pieces])
             assert np.array_equal(streamed, batch[order], equal_nan=True), (size, order)
-            assert np.array_equal(np.concatenate([p.valid[order] for p in pieces]),
-                                  batch.valid[order])  # fmt: skip
+            assert np.array_equal(
+                np.concatenate([p.valid[order] for p in pieces]), batch.valid[order]
+            )
 
 
 def test_one_sample_at_a_time_may_come_as_scalars_or_rows():
@@ -80,9 +91,13 @@ def test_one_sample_at_a_time_may_come_as_scalars_or_rows():
 
 @pytest.mark.parametrize(
     ("push", "message"),
-    [(np.zeros((0,)), "no sample"), (np.array([1.0, np.nan]), "NaN or inf"),
-     (np.zeros((3, 2)), r"shape \(2,\), the stream's are \(\)"), ("a", "real numbers")],
-)  # fmt: skip
+    [
+        (np.zeros((0,)), "no sample"),
+        (np.array([1.0, np.nan]), "NaN or inf"),
+        (np.zeros((3, 2)), r"shape \(2,\), the stream's are \(\)"),
+        ("a", "real numbers"),
+    ],
+)
 def test_a_stream_refuses_bad_chunks_by_name(push, message):
     stream = methods.get("backward_difference").stream(DT)
     stream.push(np.zeros(4))
@@ -94,22 +109,34 @@ def _weighted_fit_derivative(samples, tau, weights, degree, order, at_tau, half_
     """Independent: numpy's weighted polyfit in tau, differentiated at at_tau (d/ds =
     (1/half_span) d/dtau)."""
     keep = weights > 0
-    coefficients = np.polynomial.polynomial.polyfit(tau[keep], samples[keep], degree,
-                                                    w=np.sqrt(weights[keep]))  # fmt: skip
+    coefficients = np.polynomial.polynomial.polyfit(
+        tau[keep], samples[keep], degree, w=np.sqrt(weights[keep])
+    )
     derivative = np.polynomial.polynomial.polyder(coefficients, order)
     return np.polynomial.polynomial.polyval(at_tau, derivative) / half_span_s**order
 
 
 @pytest.mark.parametrize(
     ("kappa", "mu", "q", "window_s", "delay_s"),
-    [(1.0, 1.0, 1, 0.02, 0.0), (0.0, 0.0, 0, 0.01, 0.0), (2.5, 0.5, 2, 0.04, 0.007),
-     (4.0, 0.0, 3, 0.03, 0.03)],
-)  # fmt: skip
+    [
+        (1.0, 1.0, 1, 0.02, 0.0),
+        (0.0, 0.0, 0, 0.01, 0.0),
+        (2.5, 0.5, 2, 0.04, 0.007),
+        (4.0, 0.0, 3, 0.03, 0.03),
+    ],
+)
 def test_causal_jacobi_is_the_weighted_least_squares_fit_on_the_past_window(
     kappa, mu, q, window_s, delay_s
 ):
-    method = methods.get("causal_jacobi", kappa=kappa, mu=mu, q=q, window_s=window_s,
-                         accel_window_s=window_s, delay_s=delay_s)  # fmt: skip
+    method = methods.get(
+        "causal_jacobi",
+        kappa=kappa,
+        mu=mu,
+        q=q,
+        window_s=window_s,
+        accel_window_s=window_s,
+        delay_s=delay_s,
+    )
     x = _record(200)
     estimate = method(x, DT)
     half = round(window_s / DT / 2)
@@ -121,15 +148,17 @@ def test_causal_jacobi_is_the_weighted_least_squares_fit_on_the_past_window(
         assert not estimate.valid[order][: 2 * half].any()
         for k in (2 * half, 120, 199):
             window = x[k - 2 * half : k + 1]
-            expected = _weighted_fit_derivative(window, tau, weights, order + q, order, at_tau,
-                                                window_s / 2)  # fmt: skip
+            expected = _weighted_fit_derivative(
+                window, tau, weights, order + q, order, at_tau, window_s / 2
+            )
             assert estimate[order][k] == pytest.approx(expected, rel=1e-9, abs=1e-9)
 
 
 @pytest.mark.parametrize("name", ["backward_difference", "causal_jacobi"])
 def test_fir_methods_are_exact_on_the_polynomials_they_claim(name):
-    method = methods.get(name, accuracy=3) if name == "backward_difference" else methods.get(
-        name, q=2)  # fmt: skip
+    method = (
+        methods.get(name, accuracy=3) if name == "backward_difference" else methods.get(name, q=2)
+    )
     dt = 0.01  # long enough a record that a degree more shows
     t = np.arange(400) * dt
     for order in (0, 1, 2):
@@ -140,8 +169,9 @@ def test_fir_methods_are_exact_on_the_polynomials_they_claim(name):
         estimate = method(poly(t), dt)
         truth = poly.deriv(order)(t) if order else poly(t)
         valid = estimate.valid[order]
-        np.testing.assert_allclose(estimate[order][valid], truth[valid], rtol=1e-7,
-                                   atol=1e-7 * np.abs(truth).max())  # fmt: skip
+        np.testing.assert_allclose(
+            estimate[order][valid], truth[valid], rtol=1e-7, atol=1e-7 * np.abs(truth).max()
+        )
         if order == 0 and name == "backward_difference":
             continue  # the sample itself, exact on anything
         # one degree more is not reproduced
@@ -178,8 +208,15 @@ def test_the_kalman_filter_is_filterpys_batch_filter():
         scaled = 1e6 * np.linalg.inv(vandermonde.T @ vandermonde)
         for channel in range(2):
             kf = KalmanFilter(dim_x=states, dim_z=1)
-            kf.F = np.array([[DT ** (j - i) / math.factorial(j - i) if j >= i else 0.0
-                              for j in range(states)] for i in range(states)])  # fmt: skip
+            kf.F = np.array(
+                [
+                    [
+                        DT ** (j - i) / math.factorial(j - i) if j >= i else 0.0
+                        for j in range(states)
+                    ]
+                    for i in range(states)
+                ]
+            )
             density = (2 * math.pi * bandwidth_hz) ** (2 * states) * DT
             kf.Q = Q_continuous_white_noise(dim=states, dt=DT, spectral_density=density)
             kf.R = np.array([[1.0]])
@@ -190,8 +227,12 @@ def test_the_kalman_filter_is_filterpys_batch_filter():
             means, *_ = kf.batch_filter(x[:, channel])
             for order in (0, 1, 2):
                 expected = means[:, order, 0]
-                np.testing.assert_allclose(estimate[order][:, channel], expected, rtol=0,
-                                           atol=1e-9 * np.abs(expected).max())  # fmt: skip
+                np.testing.assert_allclose(
+                    estimate[order][:, channel],
+                    expected,
+                    rtol=0,
+                    atol=1e-9 * np.abs(expected).max(),
+                )
 
 
 def test_alpha_beta_gamma_follows_a_constant_acceleration_with_no_steady_error():
@@ -236,16 +277,23 @@ def test_the_high_gain_observer_is_the_continuous_observer_on_the_interpolated_s
     z[0] = x[0]
     states = [z]
     for k in range(x.size - 1):
-        z = solve_ivp(observer, (0.0, DT), z, method="DOP853", rtol=1e-12, atol=1e-12,
-                      args=(x[k], (x[k + 1] - x[k]) / DT)).y[:, -1]  # fmt: skip
+        z = solve_ivp(
+            observer,
+            (0.0, DT),
+            z,
+            method="DOP853",
+            rtol=1e-12,
+            atol=1e-12,
+            args=(x[k], (x[k + 1] - x[k]) / DT),
+        ).y[:, -1]
         states.append(z)
     states = np.array(states)
-    estimate = methods.get("high_gain_observer", observer_dimension=dimension,
-                           epsilon_s=epsilon)(x, DT)  # fmt: skip
+    estimate = methods.get("high_gain_observer", observer_dimension=dimension, epsilon_s=epsilon)(
+        x, DT
+    )
     for order in (0, 1, 2):
         scale = np.abs(states[:, order]).max()
-        np.testing.assert_allclose(estimate[order], states[:, order], rtol=0,
-                                   atol=1e-9 * scale)  # fmt: skip
+        np.testing.assert_allclose(estimate[order], states[:, order], rtol=0, atol=1e-9 * scale)
 
 
 @pytest.mark.parametrize("dimension", [3, 4, 5])
@@ -255,8 +303,9 @@ def test_the_high_gain_observer_places_all_its_poles_at_exp_minus_step_over_epsi
     epsilon = 0.004
     transition, _, _ = discrete_observer(dimension, epsilon, DT)
     # the characteristic polynomial (a repeated root's eigenvalues are ill-conditioned)
-    np.testing.assert_allclose(np.poly(transition), np.poly([math.exp(-DT / epsilon)] *
-                                                            dimension), atol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(
+        np.poly(transition), np.poly([math.exp(-DT / epsilon)] * dimension), atol=1e-12
+    )
 
 
 @pytest.mark.parametrize("dimension", [3, 4, 5])
@@ -334,8 +383,7 @@ def test_the_frequency_response_is_what_a_long_sinusoid_shows(name):
         response = method.frequency_response(frequency_hz, DT, order)[0]
         expected = np.real(response * np.exp(2j * np.pi * frequency_hz * t))
         scale = (2 * np.pi * frequency_hz) ** order
-        np.testing.assert_allclose(estimate[order][late], expected[late], rtol=0,
-                                   atol=1e-8 * scale)  # fmt: skip
+        np.testing.assert_allclose(estimate[order][late], expected[late], rtol=0, atol=1e-8 * scale)
 
 
 @pytest.mark.parametrize("name", CAUSAL)
@@ -346,8 +394,9 @@ def test_irregular_time_stamps_are_refused_as_not_causal(name):
         methods.get(name)(_record(300), t=t)
     # uniform stamps take the uniform path: the same as `dt`
     uniform = np.arange(300) * DT
-    np.testing.assert_array_equal(methods.get(name)(_record(300), t=uniform)[1],
-                                  methods.get(name)(_record(300), DT)[1])  # fmt: skip
+    np.testing.assert_array_equal(
+        methods.get(name)(_record(300), t=uniform)[1], methods.get(name)(_record(300), DT)[1]
+    )
 
 
 def test_the_kalman_filter_s_gains_for_a_record_and_for_a_stream_agree_bit_for_bit():

@@ -118,10 +118,12 @@ def test_jacobi_shifted_ends_are_numpys_weighted_fit_at_each_sample(kappa, mu, q
         first = np.polynomial.Polynomial.fit(t, x[: 2 * m + 1], degree, w=np.sqrt(weights))
         last = np.polynomial.Polynomial.fit(t, x[-2 * m - 1 :], degree, w=np.sqrt(weights))
         scale = np.max(np.abs(values[order][m:-m]))
-        np.testing.assert_allclose(values[order][:m], first.deriv(order)(t[:m]),
-                                   rtol=0, atol=1e-8 * scale)  # fmt: skip
-        np.testing.assert_allclose(values[order][-m:], last.deriv(order)(t[-m:]),
-                                   rtol=0, atol=1e-8 * scale)  # fmt: skip
+        np.testing.assert_allclose(
+            values[order][:m], first.deriv(order)(t[:m]), rtol=0, atol=1e-8 * scale
+        )
+        np.testing.assert_allclose(
+            values[order][-m:], last.deriv(order)(t[-m:]), rtol=0, atol=1e-8 * scale
+        )
 
 
 def test_jacobi_central_mode_keeps_the_papers_masked_ends():

@@ -48,8 +48,17 @@ def test_long_kernels_equal_oaconvolve_bit_for_bit_on_either_side_of_its_one_blo
     # which apply_central_fir runs itself); shorter kernels or longer records take blocks
     rng = np.random.default_rng(5)
     one_block = 0
-    for n, size in [(1000, 33), (1000, 101), (1000, 121), (1000, 185), (1001, 499),
-                    (999, 999), (4097, 301), (20_000, 211), (257, 255)]:  # fmt: skip
+    for n, size in [
+        (1000, 33),
+        (1000, 101),
+        (1000, 121),
+        (1000, 185),
+        (1001, 499),
+        (999, 999),
+        (4097, 301),
+        (20_000, 211),
+        (257, 255),
+    ]:
         x = rng.standard_normal((n, *channels))
         taps = rng.standard_normal(size)
         y, valid = apply_central_fir(x, taps)

@@ -27,8 +27,7 @@ def _lorenz(_t, state, sigma=10.0, rho=28.0, beta=8.0 / 3.0):
 def noisy_lorenz():
     """10 s of the Lorenz system at 2 ms, Gaussian noise of 5 % of each state's spread."""
     t = np.arange(0.0, 10.0, DT)
-    solution = solve_ivp(_lorenz, (0.0, t[-1]), [-8.0, 8.0, 27.0], t_eval=t, rtol=1e-12,
-                         atol=1e-12)  # fmt: skip
+    solution = solve_ivp(_lorenz, (0.0, t[-1]), [-8.0, 8.0, 27.0], t_eval=t, rtol=1e-12, atol=1e-12)
     states = solution.y.T
     rng = np.random.default_rng(0)
     return states + 0.05 * states.std(axis=0) * rng.standard_normal(states.shape)

@@ -125,8 +125,7 @@ def test_the_batched_solver_equals_scipys_cg_column_by_column(length_scale_s, no
     preconditioner = LinearOperator((n, n), matvec=kernel.precondition, dtype=float)
     together = kernel.solve(y)
     for index in range(y.shape[1]):
-        oracle, info = cg(system, y[:, index], rtol=1e-14, atol=0.0, M=preconditioner,
-                          maxiter=2000)  # fmt: skip
+        oracle, info = cg(system, y[:, index], rtol=1e-14, atol=0.0, M=preconditioner, maxiter=2000)
         assert info == 0
         alone = kernel.solve(y[:, index : index + 1])[:, 0]
         # two runs that each meet the tolerance differ in α by up to the tolerance times the
@@ -135,8 +134,9 @@ def test_the_batched_solver_equals_scipys_cg_column_by_column(length_scale_s, no
         smoothed = kernel.apply(oracle, 0)
         scale = max(np.max(np.abs(smoothed)), 1e-300)
         for solution in (together[:, index], alone):
-            np.testing.assert_allclose(kernel.apply(solution, 0), smoothed, rtol=0,
-                                       atol=1e-8 * scale)  # fmt: skip
+            np.testing.assert_allclose(
+                kernel.apply(solution, 0), smoothed, rtol=0, atol=1e-8 * scale
+            )
     assert not together[:, 2].any()
 
 
@@ -234,10 +234,12 @@ def test_the_marginal_likelihood_recovers_a_known_noise_level_and_length_scale()
 
 
 def _scikit_learn_regressor(t, start_length_s, span_s, restarts=1):
-    kernel = (ConstantKernel(1.0, (1e-2, 1e2)) * RBF(start_length_s, (t[1] - t[0], span_s))
-              + WhiteKernel(0.1, (1e-8, 10.0)))  # fmt: skip
-    return GaussianProcessRegressor(kernel, alpha=1e-10, n_restarts_optimizer=restarts,
-                                    random_state=0)  # fmt: skip
+    kernel = ConstantKernel(1.0, (1e-2, 1e2)) * RBF(
+        start_length_s, (t[1] - t[0], span_s)
+    ) + WhiteKernel(0.1, (1e-8, 10.0))
+    return GaussianProcessRegressor(
+        kernel, alpha=1e-10, n_restarts_optimizer=restarts, random_state=0
+    )
 
 
 @pytest.mark.parametrize(
@@ -268,8 +270,9 @@ def test_the_log_marginal_likelihood_and_its_gradient_are_scikit_learns(
     covariance += (noise_variance + 1e-10) * np.eye(t.size)
     rel = max(1e-12, 1e-14 * np.linalg.cond(covariance))
     assert ours == pytest.approx(theirs, rel=rel)
-    np.testing.assert_allclose(gradient, their_gradient, rtol=0,
-                               atol=rel * np.abs(their_gradient).max())  # fmt: skip
+    np.testing.assert_allclose(
+        gradient, their_gradient, rtol=0, atol=rel * np.abs(their_gradient).max()
+    )
 
 
 def test_the_likelihood_refuses_times_not_symmetric_about_their_middle():

@@ -42,10 +42,19 @@ def steady_path(request, monkeypatch):
 
 @pytest.mark.parametrize(
     ("model_order", "n", "bandwidth_hz", "dt"),
-    [(2, 9, 20.0, 1e-3), (2, 60, 20.0, 1e-3), (3, 60, 40.0, 1e-3), (2, 3000, 20.0, 1e-3),
-     (3, 3000, 5.0, 1e-3), (2, 500, 1.0, 0.01), (3, 2500, 60.0, 1e-3), (2, 4000, 150.0, 1e-3),
-     (3, 3000, 300.0, 1e-3), (3, 1500, 440.0, 1e-3)],
-)  # fmt: skip
+    [
+        (2, 9, 20.0, 1e-3),
+        (2, 60, 20.0, 1e-3),
+        (3, 60, 40.0, 1e-3),
+        (2, 3000, 20.0, 1e-3),
+        (3, 3000, 5.0, 1e-3),
+        (2, 500, 1.0, 0.01),
+        (3, 2500, 60.0, 1e-3),
+        (2, 4000, 150.0, 1e-3),
+        (3, 3000, 300.0, 1e-3),
+        (3, 1500, 440.0, 1e-3),
+    ],
+)
 def test_fast_smoother_equals_filterpy(model_order, n, bandwidth_hz, dt, steady_path):
     rng = np.random.default_rng(n + model_order)
     t = np.arange(n) * dt
@@ -92,8 +101,12 @@ def test_the_steady_state_solves_the_riccati_equation_and_the_recursion_reaches_
     tolerance = max(CONVERGED, ROUNDING / (2 * np.pi * bandwidth_steps) ** 2)
     last = gains.filter_gains[-1]
     assert abs(last - steady.filter_gain).max() <= tolerance * abs(steady.filter_gain).max()
-    np.testing.assert_allclose(gains.smoother_gains[-1], steady.smoother_gain, rtol=0,
-                               atol=1e-6 * abs(steady.smoother_gain).max())  # fmt: skip
+    np.testing.assert_allclose(
+        gains.smoother_gains[-1],
+        steady.smoother_gain,
+        rtol=0,
+        atol=1e-6 * abs(steady.smoother_gain).max(),
+    )
 
 
 def test_the_steady_response_is_what_the_time_domain_gives_at_a_low_bandwidth():
@@ -110,8 +123,9 @@ def test_the_steady_response_is_what_the_time_domain_gives_at_a_low_bandwidth():
         response = method.frequency_response([frequency], dt, order)[0]
         estimate = estimates[order][middle]
         expected = np.imag(response * np.exp(2j * np.pi * frequency * t[middle]))
-        np.testing.assert_allclose(estimate, expected, rtol=0,
-                                   atol=1e-7 * (2 * np.pi * frequency) ** order)  # fmt: skip
+        np.testing.assert_allclose(
+            estimate, expected, rtol=0, atol=1e-7 * (2 * np.pi * frequency) ** order
+        )
 
 
 def test_method_equals_filterpy_in_raw_derivative_units_on_every_channel(steady_path):
@@ -128,8 +142,12 @@ def test_method_equals_filterpy_in_raw_derivative_units_on_every_channel(steady_
             expected = reference[:, order] * model.to_derivatives[order]
             valid = estimate.valid[order]
             assert valid[100:-100].all()
-            np.testing.assert_allclose(estimate[order][valid, channel], expected[valid], rtol=0,
-                                       atol=1e-9 * np.max(np.abs(expected)))  # fmt: skip
+            np.testing.assert_allclose(
+                estimate[order][valid, channel],
+                expected[valid],
+                rtol=0,
+                atol=1e-9 * np.max(np.abs(expected)),
+            )
 
 
 def test_scaled_model_is_filterpys_model_in_other_units():
@@ -139,8 +157,9 @@ def test_scaled_model_is_filterpys_model_in_other_units():
 
     dt, bandwidth = 2e-3, 10.0
     model = polynomial_model(3, dt, bandwidth)
-    raw_f = np.array([[1, dt, dt**2 / 2, dt**3 / 6], [0, 1, dt, dt**2 / 2], [0, 0, 1, dt],
-                      [0, 0, 0, 1]])  # fmt: skip
+    raw_f = np.array(
+        [[1, dt, dt**2 / 2, dt**3 / 6], [0, 1, dt, dt**2 / 2], [0, 0, 1, dt], [0, 0, 0, 1]]
+    )
     density = (2 * np.pi * bandwidth) ** 8 * dt
     raw_q = Q_continuous_white_noise(dim=4, dt=dt, spectral_density=density)
     scale = np.diag(1 / model.to_derivatives)
@@ -170,7 +189,7 @@ def test_bandwidth_is_the_half_gain_point_of_the_steady_smoother():
         ({}, 1e-3, np.r_[np.zeros(50), np.nan], r"`x` holds 1 NaN"),
         ({}, 1e-3, np.zeros(5), r"`x` has 5 samples on axis 0; at least 6"),
     ],
-)  # fmt: skip
+)
 def test_bad_input(params, dt, x, message):
     with pytest.raises(ValueError, match=message):
         method = methods.get("kalman", **params)
@@ -198,8 +217,9 @@ def test_the_recursion_tested_by_blocks_stops_at_the_first_converged_step(
     assert np.array_equal(blocks.smoother_gains, steps.smoother_gains)
 
 
-@pytest.mark.parametrize(("model_order", "bandwidth_hz"), [(3, 24.0), (2, 5.0), (2, 100.0),
-                                                          (3, 300.0)])  # fmt: skip
+@pytest.mark.parametrize(
+    ("model_order", "bandwidth_hz"), [(3, 24.0), (2, 5.0), (2, 100.0), (3, 300.0)]
+)
 @pytest.mark.parametrize(("n", "channels"), [(33, 1), (34, 1), (65, 2), (1001, 3), (2000, 1)])
 def test_the_blocks_give_the_recursions_values(model_order, bandwidth_hz, n, channels):
     """The steady part by blocks of 32 against the same by recursions, for records of one

@@ -88,8 +88,9 @@ def test_savitzky_golay_matches_scipy_where_scipy_is_accurate(window, degree):
         scale = np.max(np.abs(reference))
         valid = estimate.valid[order]
         assert valid[window // 2 : -(window // 2)].all()  # only end samples may be masked
-        np.testing.assert_allclose(estimate[order][valid], reference[valid], rtol=0,
-                                   atol=relative * scale)  # fmt: skip
+        np.testing.assert_allclose(
+            estimate[order][valid], reference[valid], rtol=0, atol=relative * scale
+        )
         unchecked, _ = method._estimate(x, DT, (order,))  # scipy's ends, before masking
         np.testing.assert_allclose(unchecked[order], reference, rtol=0, atol=relative * scale)
 
@@ -125,8 +126,9 @@ def test_sindy_smoothing_matches_pysindy_called_directly(window, degree, accurac
         scale = np.max(np.abs(reference))
         valid = estimate.valid[order]
         assert valid[window:-window].all()  # only end samples may be masked
-        np.testing.assert_allclose(estimate[order][valid], reference[valid], rtol=0,
-                                   atol=1e-9 * scale)  # fmt: skip
+        np.testing.assert_allclose(
+            estimate[order][valid], reference[valid], rtol=0, atol=1e-9 * scale
+        )
         valid = estimate.valid[0]
         np.testing.assert_allclose(estimate[0][valid], sfd.smoothed_x_[valid], rtol=0, atol=5e-12)
 

@@ -234,8 +234,9 @@ def test_the_amplification_bound_keeps_least_squares_exact_to_rounding():
     u = np.arange(-1.2 * half, 1.2 * half + 1) / half  # time in units of h = 0.1 s
     for order in ORDERS:
         degree = order + q
-        poly = np.polynomial.Polynomial(np.linspace(0.3, 1.0, degree + 1) * (-1) ** np.arange(
-            degree + 1))  # fmt: skip
+        poly = np.polynomial.Polynomial(
+            np.linspace(0.3, 1.0, degree + 1) * (-1) ** np.arange(degree + 1)
+        )
         estimate = method(poly(u), dt, orders=(order,))
         valid = estimate.valid[order]
         truth = poly.deriv(order)(u) / (half * dt) ** order
@@ -262,16 +263,31 @@ def _follow_the_messages(params: dict, dt: float) -> dict:
     ("params", "dt", "name"),
     [
         # the trapezoid rule on 7 samples of a narrow kernel: the smoothed constant was 1.46x
-        ({"kappa": 30.0, "mu": 30.0, "q": 2, "window_s": 0.06, "accel_window_s": 0.2}, 0.01,
-         "window_s"),
+        (
+            {"kappa": 30.0, "mu": 30.0, "q": 2, "window_s": 0.06, "accel_window_s": 0.2},
+            0.01,
+            "window_s",
+        ),
         # the trapezoid rule where the weight's derivative is infinite at the ends
-        ({"kappa": 0.5, "mu": 0.5, "q": 2, "window_s": 0.02, "accel_window_s": 0.4}, 1e-3,
-         "window_s"),
+        (
+            {"kappa": 0.5, "mu": 0.5, "q": 2, "window_s": 0.02, "accel_window_s": 0.4},
+            1e-3,
+            "window_s",
+        ),
         # least squares on 11 samples whose weights underflow: a singular fit
-        ({"kappa": 400.0, "mu": 400.0, "rule": "least_squares", "window_s": 0.2,
-          "accel_window_s": 0.01}, 1e-3, "accel_window_s"),
+        (
+            {
+                "kappa": 400.0,
+                "mu": 400.0,
+                "rule": "least_squares",
+                "window_s": 0.2,
+                "accel_window_s": 0.01,
+            },
+            1e-3,
+            "accel_window_s",
+        ),
     ],
-)  # fmt: skip
+)
 def test_windows_too_short_for_their_rule_are_refused_with_the_shortest_that_works(
     params, dt, name
 ):

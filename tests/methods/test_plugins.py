@@ -53,8 +53,17 @@ def test_an_installed_entry_point_is_listed_run_and_stored_with_its_version(tmp_
     ) in listed.stdout
     assert "(diffbench-example-plugin 0.1.0)" in listed.stdout
     out = tmp_path / "out"
-    args = ["run", "paper-signal", "--seeds", "2", "--methods", f"{NAME},butterworth",
-            "--no-progress", "--out", str(out)]  # fmt: skip
+    args = [
+        "run",
+        "paper-signal",
+        "--seeds",
+        "2",
+        "--methods",
+        f"{NAME},butterworth",
+        "--no-progress",
+        "--out",
+        str(out),
+    ]
     ran = _diffbench(*args, env=env)
     assert ran.returncode == 0, ran.stderr
     table = (out / "paper-signal" / "rmse.md").read_text()
@@ -75,10 +84,18 @@ def test_a_module_named_by_option_or_environment_joins_one_run(tmp_path):
     assert NAME in by_option.stdout
     assert NAME not in _diffbench("list", env=env).stdout  # only for the run that names it
     by_env = _diffbench(
-        "tune", NAME, "paper-signal", "--orders", "1", "--seeds", "2", "--no-progress",
-        "--out", str(tmp_path),
+        "tune",
+        NAME,
+        "paper-signal",
+        "--orders",
+        "1",
+        "--seeds",
+        "2",
+        "--no-progress",
+        "--out",
+        str(tmp_path),
         env={**env, "DIFFBENCH_PLUGINS": "diffbench_example_plugin"},
-    )  # fmt: skip
+    )
     assert by_env.returncode == 0, by_env.stderr
     tuned = (tmp_path / "paper-signal" / "tuning.md").read_text()
     assert NAME in tuned
@@ -121,12 +138,28 @@ def test_the_generated_contract_tests_cover_a_plugin_method():
     """The registry's contract suite (exactness on the claimed polynomials and not one degree
     above, linearity, channels, bad input...) run on the plugin's method like a built-in."""
     result = subprocess.run(
-        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--benchmark-disable",
-         str(ROOT / "tests" / "methods" / "test_contract.py"), "-k", "example"],
-        capture_output=True, text=True, timeout=300, cwd=ROOT,
-        env={**os.environ, "PYTHONPATH": str(EXAMPLE),
-             "DIFFBENCH_PLUGINS": "diffbench_example_plugin"},
-    )  # fmt: skip
+        [
+            sys.executable,
+            "-m",
+            "pytest",
+            "-q",
+            "-p",
+            "no:cacheprovider",
+            "--benchmark-disable",
+            str(ROOT / "tests" / "methods" / "test_contract.py"),
+            "-k",
+            "example",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=ROOT,
+        env={
+            **os.environ,
+            "PYTHONPATH": str(EXAMPLE),
+            "DIFFBENCH_PLUGINS": "diffbench_example_plugin",
+        },
+    )
     assert result.returncode == 0, result.stdout[-3000:]
     summary = result.stdout.strip().splitlines()[-1]
     passed = int(summary.split(" passed")[0].split()[-1])

@@ -136,8 +136,16 @@ def test_windows_and_frequencies_say_their_kind(name):
 
 
 def test_kind_defaults_to_none_and_changes_nothing_else():
-    plain = methods.Param(name="width", default=1.0, low=0.0, low_open=True, tune_low=0.1,
-                          tune_high=2.0, log=True, doc="a width")  # fmt: skip
+    plain = methods.Param(
+        name="width",
+        default=1.0,
+        low=0.0,
+        low_open=True,
+        tune_low=0.1,
+        tune_high=2.0,
+        log=True,
+        doc="a width",
+    )
     assert plain.kind is None
     windowed = dataclasses.replace(plain, kind="window")
     assert windowed.describe_range() == plain.describe_range() == "(0, inf)"
@@ -152,8 +160,11 @@ def test_kind_defaults_to_none_and_changes_nothing_else():
 
 
 def test_unknown_kind_is_rejected_at_registration():
-    with pytest.raises(ValueError, match=r"_test_bad_kind: parameter `width` has kind 'windows'; "
-                       r"it must be one of None, 'window', 'frequency'"):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=r"_test_bad_kind: parameter `width` has kind 'windows'; "
+        r"it must be one of None, 'window', 'frequency'",
+    ):
 
         @register("_test_bad_kind")
         class BadKind(Method):
@@ -189,8 +200,11 @@ def test_default_preset_is_the_class_defaults():
 
 
 def test_misspelt_preset_is_an_error_listing_the_keys():
-    with pytest.raises(ValueError, match=r"no preset 'paper-sginal'; available: paper-signal, "
-                       r"robot, default"):  # fmt: skip
+    with pytest.raises(
+        ValueError,
+        match=r"no preset 'paper-sginal'; available: paper-signal, "
+        r"robot, default",
+    ):
         methods.preset("jacobi", "paper-sginal")
 
 

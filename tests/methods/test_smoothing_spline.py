@@ -56,17 +56,20 @@ def test_reinsch_solve_equals_the_exact_rational_solve_at_the_lowest_cutoff(unif
     y = np.sin(np.arange(n) / 7.0) + 0.1 * rng.standard_normal(n)
     lam = smoothing_parameter(1e-3 * 0.5 / DT, DT)  # the lowest cutoff the method takes
     g, slope, curvature = natural_smoothing_spline(DT if uniform else steps, y, lam)
-    exact_g, exact_gamma = _exact_reinsch([Fraction(s) for s in steps],
-                                          [Fraction(v) for v in y], Fraction(lam))  # fmt: skip
+    exact_g, exact_gamma = _exact_reinsch(
+        [Fraction(s) for s in steps], [Fraction(v) for v in y], Fraction(lam)
+    )
     np.testing.assert_allclose(g, exact_g, rtol=0, atol=1e-12 * np.max(np.abs(exact_g)))
-    np.testing.assert_allclose(curvature, exact_gamma, rtol=0,
-                               atol=1e-10 * np.max(np.abs(exact_gamma)))  # fmt: skip
+    np.testing.assert_allclose(
+        curvature, exact_gamma, rtol=0, atol=1e-10 * np.max(np.abs(exact_gamma))
+    )
     # g' from the cubic on each interval, at its left knot (at the last knot: its right one)
     h = steps
     expected = np.empty(n)
     expected[:-1] = np.diff(exact_g) / h - h * (2 * exact_gamma[:-1] + exact_gamma[1:]) / 6
-    expected[-1] = ((exact_g[-1] - exact_g[-2]) / h[-1]
-                    + h[-1] * (exact_gamma[-2] + 2 * exact_gamma[-1]) / 6)  # fmt: skip
+    expected[-1] = (exact_g[-1] - exact_g[-2]) / h[-1] + h[-1] * (
+        exact_gamma[-2] + 2 * exact_gamma[-1]
+    ) / 6
     np.testing.assert_allclose(slope, expected, rtol=0, atol=1e-10 * np.max(np.abs(expected)))
 
 
@@ -86,8 +89,7 @@ def test_reinsch_solve_equals_scipys_b_spline_solve(cutoff_hz, rtol, uniform):
     spline = make_smoothing_spline(t, y, lam=lam, axis=0)
     for order in range(3):
         theirs = spline.derivative(order)(t) if order else spline(t)
-        np.testing.assert_allclose(ours[order], theirs, rtol=0,
-                                   atol=rtol * np.max(np.abs(theirs)))  # fmt: skip
+        np.testing.assert_allclose(ours[order], theirs, rtol=0, atol=rtol * np.max(np.abs(theirs)))
 
 
 def test_equals_scipys_smoothing_spline_with_the_stated_lambda():

@@ -104,8 +104,9 @@ def test_the_fitted_trend_minimises_the_energy_above_the_cutoff(degree):
     powers = tau[:, None] ** np.arange(degree + 1)
     design = dft @ extend(powers, "odd")
     target = dft @ extend(x, "odd")
-    direct = linalg.lstsq(np.vstack([design.real, design.imag]),
-                          np.concatenate([target.real, target.imag]))[0]  # fmt: skip
+    direct = linalg.lstsq(
+        np.vstack([design.real, design.imag]), np.concatenate([target.real, target.imag])
+    )[0]
     one_sided = 1.0 - raised_cosine_lowpass(np.fft.rfftfreq(period, DT), cutoff_hz, 0.3)
     fitted = polynomial_trend(x[:, None], "odd-fitted", degree, one_sided)[: degree + 1, 0]
     np.testing.assert_allclose(fitted, direct, rtol=1e-8, atol=1e-8)
@@ -188,14 +189,19 @@ def test_split_transforms_equal_numpy(n_samples, reflect, monkeypatch):
     x = rng.standard_normal(n_samples)
     y = x if reflect is None else np.concatenate([x, reflect * x[-2:0:-1]])
     expected = np.fft.rfft(y)
-    np.testing.assert_allclose(_fft.rfft(x, reflect), expected, rtol=0,
-                               atol=2e-15 * np.max(np.abs(expected)))  # fmt: skip
+    np.testing.assert_allclose(
+        _fft.rfft(x, reflect), expected, rtol=0, atol=2e-15 * np.max(np.abs(expected))
+    )
     factor = rng.standard_normal(expected.size) + 1j * rng.standard_normal(expected.size)
     given = expected.copy()
     for keep in {y.size, y.size // 2 + 1, y.size // 2, 3, 2}:
         inverse = np.fft.irfft(expected * factor, y.size)[:keep]  # drops Im at 0 and Nyquist
-        np.testing.assert_allclose(_fft.irfft(given, y.size, keep, lambda k: factor[k]), inverse,
-                                   rtol=0, atol=2e-15 * np.max(np.abs(inverse)))  # fmt: skip
+        np.testing.assert_allclose(
+            _fft.irfft(given, y.size, keep, lambda k: factor[k]),
+            inverse,
+            rtol=0,
+            atol=2e-15 * np.max(np.abs(inverse)),
+        )
         np.testing.assert_allclose(_fft.irfft(given, y.size, keep), y[:keep], rtol=0, atol=1e-14)
     np.testing.assert_array_equal(given, expected)  # the spectrum given is not written
 
@@ -216,16 +222,18 @@ def test_each_end_basis_polynomial_holds_one_end_datum(degree):
     basis = end_basis(degree)
     for j in range(degree + 1):
         p = np.polynomial.Polynomial(basis[:, j])
-        data = [p.deriv(d)(end) for d in range(0, degree + 1, 2)
-                for end in ((0.0, 1.0) if d < degree else (0.0,))]  # fmt: skip
+        data = [
+            p.deriv(d)(end)
+            for d in range(0, degree + 1, 2)
+            for end in ((0.0, 1.0) if d < degree else (0.0,))
+        ]
         np.testing.assert_allclose(data, np.eye(degree + 1)[j], atol=1e-12)
 
 
 @pytest.mark.parametrize(
     "extension, degree",
-    [("odd-fitted", 0), ("odd-fitted", 1), ("odd-fitted", 3), ("odd", 1), ("even", 1),
-     ("none", 1)],
-)  # fmt: skip
+    [("odd-fitted", 0), ("odd-fitted", 1), ("odd-fitted", 3), ("odd", 1), ("even", 1), ("none", 1)],
+)
 def test_the_lean_path_equals_the_qr_path(extension, degree, monkeypatch):
     """The lean path (long records) against the path of short records on the same 2-channel
     record: to rounding, and for the fitted cubic to 1e-7 of ẍ's scale (the powers' weighted

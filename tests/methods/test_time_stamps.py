@@ -71,8 +71,12 @@ def test_savitzky_golay_at_irregular_times_is_exact_on_its_degree(degree):
         valid = estimate.valid[order]
         assert valid.mean() > 0.8
         expected = poly.deriv(order)(t) if order else poly(t)
-        np.testing.assert_allclose(estimate[order][valid], expected[valid], rtol=0,
-                                   atol=1e-8 * np.max(np.abs(expected)) + 1e-9)  # fmt: skip
+        np.testing.assert_allclose(
+            estimate[order][valid],
+            expected[valid],
+            rtol=0,
+            atol=1e-8 * np.max(np.abs(expected)) + 1e-9,
+        )
 
 
 @pytest.mark.parametrize("end_offset_s", [0.0, 0.0013])
@@ -97,8 +101,9 @@ def test_resampled_methods_are_exact_on_cubics_through_the_cubic_spline(end_offs
     for order in (1, 2):
         valid = estimate.valid[order]
         assert valid.mean() > 0.5
-        np.testing.assert_allclose(estimate[order][valid], poly.deriv(order)(t[valid]), rtol=0,
-                                   atol=1e-7 * 10**order)  # fmt: skip
+        np.testing.assert_allclose(
+            estimate[order][valid], poly.deriv(order)(t[valid]), rtol=0, atol=1e-7 * 10**order
+        )
 
 
 def test_native_methods_are_the_ones_that_say_so():
@@ -144,8 +149,9 @@ def test_finite_differences_at_irregular_times(accuracy):
         keep = estimate.valid[order]
         assert keep.mean() > 0.95
         truth = poly.deriv(order)(t)
-        np.testing.assert_allclose(estimate[order][keep], truth[keep], rtol=0,
-                                   atol=1e-7 * np.abs(truth).max())  # fmt: skip
+        np.testing.assert_allclose(
+            estimate[order][keep], truth[keep], rtol=0, atol=1e-7 * np.abs(truth).max()
+        )
 
 
 def test_kalman_at_irregular_times_is_filterpy_per_step_and_exact_on_its_model():

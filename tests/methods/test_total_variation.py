@@ -74,9 +74,13 @@ def test_agrees_with_a_general_solver_on_the_split_problem(tv_order):
     )
     start = np.concatenate([x, np.abs(difference @ x)])
     reference = minimize(
-        objective, start, jac=gradient, constraints=[bounds], method="SLSQP",
+        objective,
+        start,
+        jac=gradient,
+        constraints=[bounds],
+        method="SLSQP",
         options={"ftol": 1e-14, "maxiter": 1000},
-    )  # fmt: skip
+    )
     # status 8: SLSQP's line search found no descent left at rounding level (seen under
     # OpenBLAS Sandybridge at ftol 1e-14): the point is then judged by the checks below
     assert reference.success or reference.status == 8, reference.message

@@ -138,9 +138,24 @@ def test_lab_parameters_are_the_yml_as_floats():
     assert p["I2"] == 0.053878129629650884
     assert p["r2"] == 0.3212669909674605
     assert set(p) == {
-        "I1", "I2", "Ir", "b1", "b2", "cf1", "cf2", "g", "gr", "l1", "l2", "m1", "m2", "r1",
-        "r2", "tl1", "tl2",
-    }  # fmt: skip
+        "I1",
+        "I2",
+        "Ir",
+        "b1",
+        "b2",
+        "cf1",
+        "cf2",
+        "g",
+        "gr",
+        "l1",
+        "l2",
+        "m1",
+        "m2",
+        "r1",
+        "r2",
+        "tl1",
+        "tl2",
+    }
     assert all(type(value) is float for value in p.values())
     p["g"] = 0.0  # a fresh dict each call
     assert lab_parameters()["g"] == 9.81
@@ -485,15 +500,21 @@ def _good_rows(n=120):
 @pytest.mark.parametrize(
     ("header", "rows", "message"),
     [
-        ("time,pos_meas1,tau_meas1,tau_meas2,tau_con1,tau_con2", None,
-         r"lacks the columns \['pos_meas2'\]"),
+        (
+            "time,pos_meas1,tau_meas1,tau_meas2,tau_con1,tau_con2",
+            None,
+            r"lacks the columns \['pos_meas2'\]",
+        ),
         (GOOD_HEADER, ["0.0,1,2,3,4,five,6"], "not a table of numbers"),
         (GOOD_HEADER, ["0.0,1,2,3,4,nan,6"], "line 2 holds NaN or inf"),
-        (GOOD_HEADER, [*_good_rows(60), "0.05,1,1,1,1,1,1", *_good_rows(120)[61:]],
-         "the time column decreases at data row"),
+        (
+            GOOD_HEADER,
+            [*_good_rows(60), "0.05,1,1,1,1,1,1", *_good_rows(120)[61:]],
+            "the time column decreases at data row",
+        ),
         (GOOD_HEADER, _good_rows(50), "50 distinct time stamps, at least 100 needed"),
     ],
-)  # fmt: skip
+)
 def test_bad_records_are_refused_in_one_line_naming_the_file(tmp_path, header, rows, message):
     path = _write(tmp_path / "bad.csv", header, rows if rows is not None else _good_rows())
     with pytest.raises(ValueError, match=message) as caught:

@@ -16,8 +16,11 @@ def _kinetic_energy(q, qd, parameters):
     from the link geometry, independently of the regressor (works on complex numbers)."""
     zz1r, zz2, mx2, my2 = parameters[:4]
     c2, s2 = np.cos(q[1]), np.sin(q[1])
-    return (0.5 * zz1r * qd[0] ** 2 + 0.5 * zz2 * (qd[0] + qd[1]) ** 2
-            + L * qd[0] * (qd[0] + qd[1]) * (mx2 * c2 - my2 * s2))  # fmt: skip
+    return (
+        0.5 * zz1r * qd[0] ** 2
+        + 0.5 * zz2 * (qd[0] + qd[1]) ** 2
+        + L * qd[0] * (qd[0] + qd[1]) * (mx2 * c2 - my2 * s2)
+    )
 
 
 def _lagrangian_torque(q, qd, qdd, parameters, slope):
@@ -28,29 +31,53 @@ def _lagrangian_torque(q, qd, qdd, parameters, slope):
     unit = np.eye(2)
 
     def momentum(qq):  # p_i = ∂E/∂q̇_i at (qq, qd); qq may be complex
-        return np.array([(_kinetic_energy(qq, qd + delta * unit[i], parameters)
-                          - _kinetic_energy(qq, qd - delta * unit[i], parameters)) / (2 * delta)
-                         for i in range(2)])  # fmt: skip
+        return np.array(
+            [
+                (
+                    _kinetic_energy(qq, qd + delta * unit[i], parameters)
+                    - _kinetic_energy(qq, qd - delta * unit[i], parameters)
+                )
+                / (2 * delta)
+                for i in range(2)
+            ]
+        )
 
     # d/dt p = Σ_k ∂p/∂q_k q̇_k + ∂p/∂q̇ q̈, with ∂p/∂q̇ = M(q) = Hessian of E in q̇
     dp_dq = np.array([np.imag(momentum(q + 1j * h * unit[k])) / h for k in range(2)]).T
-    hessian = np.array([(momentum_at_velocity(q, qd + delta * unit[j], parameters)
-                         - momentum_at_velocity(q, qd - delta * unit[j], parameters))
-                        / (2 * delta) for j in range(2)]).T  # fmt: skip
-    de_dq = np.array([np.imag(_kinetic_energy(q + 1j * h * unit[k], qd, parameters)) / h
-                      for k in range(2)])  # fmt: skip
-    friction = np.array([parameters[4] * qd[0] + parameters[5] * 2 / math.pi
-                         * math.atan(slope * qd[0]),
-                         parameters[6] * qd[1] + parameters[7] * 2 / math.pi
-                         * math.atan(slope * qd[1])])  # fmt: skip
+    hessian = np.array(
+        [
+            (
+                momentum_at_velocity(q, qd + delta * unit[j], parameters)
+                - momentum_at_velocity(q, qd - delta * unit[j], parameters)
+            )
+            / (2 * delta)
+            for j in range(2)
+        ]
+    ).T
+    de_dq = np.array(
+        [np.imag(_kinetic_energy(q + 1j * h * unit[k], qd, parameters)) / h for k in range(2)]
+    )
+    friction = np.array(
+        [
+            parameters[4] * qd[0] + parameters[5] * 2 / math.pi * math.atan(slope * qd[0]),
+            parameters[6] * qd[1] + parameters[7] * 2 / math.pi * math.atan(slope * qd[1]),
+        ]
+    )
     return dp_dq @ qd + hessian @ qdd - de_dq + friction
 
 
 def momentum_at_velocity(q, velocity, parameters, delta=1.0):
     unit = np.eye(2)
-    return np.array([(_kinetic_energy(q, velocity + delta * unit[i], parameters)
-                      - _kinetic_energy(q, velocity - delta * unit[i], parameters)) / (2 * delta)
-                     for i in range(2)])  # fmt: skip
+    return np.array(
+        [
+            (
+                _kinetic_energy(q, velocity + delta * unit[i], parameters)
+                - _kinetic_energy(q, velocity - delta * unit[i], parameters)
+            )
+            / (2 * delta)
+            for i in range(2)
+        ]
+    )
 
 
 def test_regressor_times_parameters_equals_an_independent_lagrangian():
@@ -88,9 +115,16 @@ def test_kinetic_energy_is_conserved_without_friction_and_control():
     frictionless = X.copy()
     frictionless[4:] = 0.0
     trajectory = robot2r.PointToPoint(np.array([[0.3, -0.5], [0.3, -0.5]]), np.array([4.0]), 0.0)
-    motion = robot2r.simulate_pd(trajectory, frictionless, L, robot2r.COULOMB_SLOPE,
-                                 bandwidth_hz=0.0, step_s=1e-3, sample_every=10,
-                                 initial_velocity=(1.5, -2.0))  # fmt: skip
+    motion = robot2r.simulate_pd(
+        trajectory,
+        frictionless,
+        L,
+        robot2r.COULOMB_SLOPE,
+        bandwidth_hz=0.0,
+        step_s=1e-3,
+        sample_every=10,
+        initial_velocity=(1.5, -2.0),
+    )
     mass = robot2r.mass_matrix(motion.q, frictionless)
     energy = 0.5 * np.einsum("ni,nij,nj->n", motion.qd, mass, motion.qd)
     assert np.ptp(motion.q[:, 1]) > 1.0  # it really moves

@@ -25,11 +25,14 @@ def test_dropout_loses_the_fraction_of_inner_samples_and_keeps_the_ends():
     assert np.all(np.isin(kept, t)) and np.all(np.diff(kept) > 0)
 
 
-@pytest.mark.parametrize(("model", "message"), [
-    (lambda: Jitter(fraction=0.5), "below 0.5"),
-    (lambda: Dropout(fraction=0.95), "at most 0.9"),
-    (lambda: Jitter(fraction=-0.1), "fraction"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    ("model", "message"),
+    [
+        (lambda: Jitter(fraction=0.5), "below 0.5"),
+        (lambda: Dropout(fraction=0.95), "at most 0.9"),
+        (lambda: Jitter(fraction=-0.1), "fraction"),
+    ],
+)
 def test_bad_fractions_are_refused(model, message):
     with pytest.raises(ValueError, match=message):
         model()

@@ -37,8 +37,9 @@ def test_matern_spectrum_and_state_model_give_its_variances(nu):
     # (-k''(0) of the Matérn covariance); the state model's stationary covariance agrees
     signal = Matern(smoothness=nu, length_scale_s=0.2, std=1.5)
     variance = integrate.quad(signal.spectral_density, -np.inf, np.inf, epsrel=1e-12)[0]
-    slope = integrate.quad(lambda f: (2 * np.pi * f) ** 2 * signal.spectral_density(f),
-                           -np.inf, np.inf, epsrel=1e-12)[0]  # fmt: skip
+    slope = integrate.quad(
+        lambda f: (2 * np.pi * f) ** 2 * signal.spectral_density(f), -np.inf, np.inf, epsrel=1e-12
+    )[0]
     expected_slope = 1.5**2 * nu / ((nu - 1) * 0.2**2)
     assert variance == pytest.approx(1.5**2, rel=1e-9)
     assert slope == pytest.approx(expected_slope, rel=1e-9)
@@ -71,9 +72,15 @@ def test_drawn_derivatives_match_finite_differences_of_a_fine_realisation(signal
 
 def test_a_scenario_on_a_random_signal_is_reproducible_per_seed():
     scenario = Scenario(
-        name="matern-test", signal=Matern(), noise=NoiseStack((Gaussian(std=NOISE_STD),)),
-        dt_s=DT, duration_s=0.5, interior_margin_s=0.1, description="test", preset="default",
-    )  # fmt: skip
+        name="matern-test",
+        signal=Matern(),
+        noise=NoiseStack((Gaussian(std=NOISE_STD),)),
+        dt_s=DT,
+        duration_s=0.5,
+        interior_margin_s=0.1,
+        description="test",
+        preset="default",
+    )
     first, again, other = scenario.realise(4), scenario.realise(4), scenario.realise(5)
     np.testing.assert_array_equal(first.x, again.x)
     np.testing.assert_array_equal(first.truth[2], again.truth[2])
@@ -124,10 +131,15 @@ def test_optimal_states_equal_filterpys_kalman_filter_and_rts_smoother():
     means, covariances, _, _ = kalman.batch_filter(y)
     smoothed, *_ = kalman.rts_smoother(means, covariances)
     scale = np.array([1.0, 10.0, 1000.0])
-    np.testing.assert_allclose(optimal_states(signal, DT, NOISE_STD, y, causal=True) / scale,
-                               means / scale, rtol=0, atol=1e-9)  # fmt: skip
-    np.testing.assert_allclose(optimal_states(signal, DT, NOISE_STD, y) / scale,
-                               smoothed / scale, rtol=0, atol=1e-9)  # fmt: skip
+    np.testing.assert_allclose(
+        optimal_states(signal, DT, NOISE_STD, y, causal=True) / scale,
+        means / scale,
+        rtol=0,
+        atol=1e-9,
+    )
+    np.testing.assert_allclose(
+        optimal_states(signal, DT, NOISE_STD, y) / scale, smoothed / scale, rtol=0, atol=1e-9
+    )
 
 
 @pytest.mark.parametrize("signal", SIGNALS, ids=IDS)
@@ -218,8 +230,9 @@ def test_band_limited_draws_have_its_covariance_and_the_flat_band_is_its_limit()
                 expected = BAND.cross_covariance(t[i] - t[j], a, b)[0]
                 assert abs(pairs.mean() - expected) < 4.5 * pairs.std() / math.sqrt(len(draws))
     lags = np.linspace(0.0, 0.5, 101)
-    np.testing.assert_allclose(BAND.cross_covariance(lags, 0, 0),
-                               1.5**2 * np.sinc(2 * 20.0 * lags), rtol=0, atol=2e-3)  # fmt: skip
+    np.testing.assert_allclose(
+        BAND.cross_covariance(lags, 0, 0), 1.5**2 * np.sinc(2 * 20.0 * lags), rtol=0, atol=2e-3
+    )
     variance = integrate.quad(BAND.spectral_density, -30.0, 30.0, points=[-20.0, 20.0])[0]
     assert variance == pytest.approx(1.5**2, rel=1e-9)
     # Var ẋ = σ² mean(ω_k²): the flat band's (2πB)²/3 σ² within the midpoint rule's error
@@ -271,8 +284,10 @@ def test_the_band_limited_bound_is_reached_by_its_optimal_estimator_within_monte
             assert standard_error < 0.05 * bound  # precise enough to fail
             assert abs(mean - bound) < 3 * standard_error, (causal, order, mean, bound)
             if causal:
-                assert bound > gaussian_posterior(BAND, DT, n, noise_std).variance[order][
-                    middle].mean()  # fmt: skip
+                assert (
+                    bound
+                    > gaussian_posterior(BAND, DT, n, noise_std).variance[order][middle].mean()
+                )
 
 
 def test_the_band_limited_record_bound_is_near_the_infinite_records_wiener_integral():
@@ -283,8 +298,15 @@ def test_the_band_limited_record_bound_is_near_the_infinite_records_wiener_integ
     posterior = gaussian_posterior(signal, dt, n, noise_std)
     flat, density = 1.0 / 40.0, noise_std**2 * dt
     for order in (1, 2):
-        wiener = (flat * density / (flat + density) * 2 * (2 * np.pi) ** (2 * order)
-                  * 20.0 ** (2 * order + 1) / (2 * order + 1))  # fmt: skip
+        wiener = (
+            flat
+            * density
+            / (flat + density)
+            * 2
+            * (2 * np.pi) ** (2 * order)
+            * 20.0 ** (2 * order + 1)
+            / (2 * order + 1)
+        )
         ratio = posterior.variance[order][500:1001].mean() / wiener
         assert 1.03 < ratio < 1.25, (order, ratio)
 

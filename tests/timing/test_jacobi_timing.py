@@ -51,8 +51,7 @@ def test_jacobi_method_orders_0_to_2(benchmark, samples, jacobi):
     for order in (0, 1, 2):
         reference = sps.oaconvolve(samples, jacobi.taps(order, DT)[::-1], mode="valid")
         scale = np.abs(reference).max()
-        np.testing.assert_allclose(estimate[order][105:-105], reference, rtol=0,
-                                   atol=1e-12 * scale)  # fmt: skip
+        np.testing.assert_allclose(estimate[order][105:-105], reference, rtol=0, atol=1e-12 * scale)
 
 
 @pytest.mark.benchmark(group="jacobi-orders-0-2-1e6")

@@ -42,8 +42,13 @@ def test_filterpy_batch_filter_and_rts_smoother_2e4(benchmark, kalman):
     model = kalman.model(DT)
     mean0, covariance0 = initial_state(x[:, None], model.per_step_coefficient)
 
-    smoothed = benchmark.pedantic(filterpy_smoother, args=(x, model, mean0, covariance0),
-                                  rounds=2, iterations=1, warmup_rounds=0)  # fmt: skip
+    smoothed = benchmark.pedantic(
+        filterpy_smoother,
+        args=(x, model, mean0, covariance0),
+        rounds=2,
+        iterations=1,
+        warmup_rounds=0,
+    )
     benchmark.extra_info["samples"] = x.size
     ours = kalman(x, DT)
     valid = ours.valid[0]  # the ends outside the method's own accuracy are masked

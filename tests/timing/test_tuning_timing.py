@@ -30,8 +30,9 @@ def _rmse(estimate, record):
 
 @pytest.mark.benchmark(group="oracle-tuning-1000-samples")
 def test_diffbench_oracle_tuning_savitzky_golay(benchmark, record):
-    result = benchmark.pedantic(tuning.tune, args=("savitzky_golay", record, 1, "oracle"),
-                                rounds=1, iterations=1)  # fmt: skip
+    result = benchmark.pedantic(
+        tuning.tune, args=("savitzky_golay", record, 1, "oracle"), rounds=1, iterations=1
+    )
     estimate = methods.get("savitzky_golay", **result.params)(record.x, DT, orders=(1,))
     assert estimate.valid[1][record.interior].all()
     # the tuner compares losses rounded to 1e-9 of the RMS of the true ẋ (about 1e-7 here)
@@ -55,8 +56,9 @@ def test_pynumdiff_optimize_savgoldiff(benchmark, record):
     def run():
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            return optimize(pynumdiff.savgoldiff, x, DT, dxdt_truth=truth, padding=150,
-                            parallel=False)  # fmt: skip
+            return optimize(
+                pynumdiff.savgoldiff, x, DT, dxdt_truth=truth, padding=150, parallel=False
+            )
 
     params, value = benchmark.pedantic(run, rounds=1, iterations=1)
     _, derivative = pynumdiff.savgoldiff(x, DT, **params)
