@@ -21,9 +21,10 @@ from importlib import metadata
 from pathlib import Path
 
 from diffbench import methods
-from diffbench.bench import executor, runner, uptodate
-from diffbench.bench.executor import Terminated, terminate_on_sigterm
-from diffbench.bench.provenance import provenance
+from diffbench.bench import runner, uptodate
+from diffbench.bench.core import executor
+from diffbench.bench.core.executor import Terminated, terminate_on_sigterm
+from diffbench.bench.core.provenance import provenance
 from diffbench.bench.store import Store, StoreError, set_command
 from diffbench.bench.tasks import available_tasks, dfki_task, get_task
 
@@ -727,7 +728,7 @@ def _cmd_report(args) -> None:
 
 
 def _check_cutoff(cutoff_hz: float, task, criteria, region: str) -> None:
-    from diffbench.bench import tuning
+    from diffbench.bench.core import tuning
 
     realisation = task.tuning_data(0)
     for criterion in criteria:
@@ -817,7 +818,7 @@ def _tune(jobs_list, store: Store, args):
 
 
 def _cmd_grid(args) -> None:
-    from diffbench.bench import grid
+    from diffbench.bench.studies import grid
 
     store = _open_store(args.out)
     found, _ = _tune(grid.tuning_jobs(args.orders, _method_names(args.methods)), store, args)
@@ -833,7 +834,7 @@ def _cmd_grid(args) -> None:
 
 
 def _cmd_limit(args) -> None:
-    from diffbench.bench import grid, limit
+    from diffbench.bench.studies import grid, limit
 
     tasks = args.scenarios or limit.task_names()
     unknown = sorted(set(tasks) - set(limit.task_names()))
@@ -856,7 +857,7 @@ def _cmd_limit(args) -> None:
 
 
 def _cmd_pareto(args) -> None:
-    from diffbench.bench import limit
+    from diffbench.bench.studies import limit
 
     task = _task(args.task)
     with user_input():
@@ -875,7 +876,7 @@ def _cmd_pareto(args) -> None:
 
 
 def _cmd_paper_figures(args) -> None:
-    from diffbench.bench import paper
+    from diffbench.bench.studies import paper
 
     directory = args.out / "paper-figures"
     directory.mkdir(parents=True, exist_ok=True)
@@ -896,7 +897,7 @@ def _cmd_paper_figures(args) -> None:
 
 def _cmd_export(args) -> None:
     from diffbench import signals
-    from diffbench.bench import user_data
+    from diffbench.bench.studies import user_data
 
     with user_input():
         realisation = signals.get_scenario(args.scenario).realise(args.seed)
@@ -905,7 +906,7 @@ def _cmd_export(args) -> None:
 
 
 def _cmd_recommend(args) -> None:
-    from diffbench.bench import recommend, user_data
+    from diffbench.bench.studies import recommend, user_data
 
     names = _method_names(args.methods)
     with user_input():
@@ -929,7 +930,7 @@ VALIDATION = "recommend-validation"
 
 def _cmd_recommend_check(args) -> None:
     from diffbench import signals
-    from diffbench.bench import recommend
+    from diffbench.bench.studies import recommend
 
     names = _method_names(args.methods) or list(recommend.VALIDATION_METHODS)
     scenarios = args.scenarios or [
@@ -969,7 +970,7 @@ def _cmd_recommend_check(args) -> None:
 
 
 def _cmd_timing(args) -> None:
-    from diffbench.bench import timing
+    from diffbench.bench.studies import timing
 
     sizes = [size for size in timing.SIZES if size < args.largest] + [args.largest]
     table = timing.throughput(sizes=sizes, progress=lambda line: print(line, flush=True))

@@ -42,8 +42,8 @@ from typing import Any
 import pandas as pd
 from filelock import FileLock
 
-from diffbench.bench.provenance import provenance
-from diffbench.bench.roles import OPTIONAL_DEFAULTS, TUNED_REGIONS, Role
+from diffbench.bench.core.provenance import provenance
+from diffbench.bench.core.roles import OPTIONAL_DEFAULTS, TUNED_REGIONS, Role
 
 FORMAT = "diffbench-store"
 VERSION = 1

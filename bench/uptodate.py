@@ -22,7 +22,7 @@ import os
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-from diffbench.bench.provenance import provenance
+from diffbench.bench.core.provenance import provenance
 
 KEY_FILE = ".diffbench-report.json"
 """The file, in a report's directory, holding the key and the files of its last writing
@@ -49,7 +49,7 @@ def _source_digest() -> str:
 
 def code_fingerprint() -> str:
     """What the code is: diffbench's files, the interpreter, BLAS, package and plugin
-    versions (:func:`diffbench.bench.provenance.provenance`)."""
+    versions (:func:`diffbench.bench.core.provenance.provenance`)."""
     return f"{_source_digest()};{provenance()['versions']}"
 
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from diffbench.bench import tuning
+from diffbench.bench.core import tuning
 from diffbench.bench.store import Store
 from diffbench.bench.tasks import get_task
 

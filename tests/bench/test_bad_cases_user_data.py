@@ -10,9 +10,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from diffbench.bench import user_data
-from diffbench.bench.recommend import recommend, recommend_record, write_recommendation
-from diffbench.bench.user_data import RecordWarning, UserRecord, read_record
+from diffbench.bench.studies import user_data
+from diffbench.bench.studies.recommend import recommend, recommend_record, write_recommendation
+from diffbench.bench.studies.user_data import RecordWarning, UserRecord, read_record
 
 FAST = ["--methods", "savitzky_golay,butterworth", "--budget", "20"]
 

@@ -7,8 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from diffbench.bench import runner, tuning
+from diffbench.bench import runner
 from diffbench.bench.cli import main
+from diffbench.bench.core import tuning
 from diffbench.bench.store import Store
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -296,7 +297,7 @@ def test_rerun_of_tune_retunes_nothing_and_tuning_is_reproducible(tmp_path, caps
 
 
 def test_rerun_of_grid_retunes_and_recomputes_nothing(tmp_path, capsys, monkeypatch, tuning_calls):
-    from diffbench.bench import grid
+    from diffbench.bench.studies import grid
     from diffbench.signals.scenarios import grid_scenario_name
 
     coarse = [grid_scenario_name(kind, 0.2, 1e-2) for kind in ("gaussian", "poisson")]

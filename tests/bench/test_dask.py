@@ -9,9 +9,10 @@ import time
 import numpy as np
 import pytest
 
-from diffbench.bench import executor, runner
+from diffbench.bench import runner
 from diffbench.bench.cli import main
-from diffbench.bench.executor import DaskWorkers
+from diffbench.bench.core import executor
+from diffbench.bench.core.executor import DaskWorkers
 from diffbench.bench.store import Store
 
 distributed = pytest.importorskip("dask.distributed")

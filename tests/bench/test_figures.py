@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from diffbench import methods
-from diffbench.bench import figures
+from diffbench.bench.report import figures
 
 
 def _table():

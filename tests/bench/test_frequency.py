@@ -5,7 +5,12 @@ import pytest
 from scipy import optimize
 
 from diffbench import methods, signals
-from diffbench.bench.frequency import cutoff_hz, decompose_error, noise_gain, relative_response
+from diffbench.bench.studies.frequency import (
+    cutoff_hz,
+    decompose_error,
+    noise_gain,
+    relative_response,
+)
 
 DT = 1e-3
 

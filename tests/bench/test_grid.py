@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from diffbench import signals
-from diffbench.bench import grid
+from diffbench.bench.studies import grid
 from diffbench.signals.scenarios import GRID_NOISE_LEVELS, GRID_NOISE_TYPES, GRID_STEPS_S
 
 

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from diffbench import methods
-from diffbench.bench import robot
 from diffbench.bench.cli import main
-from diffbench.bench.identification import decimation_factor, idim_ls, parallel_decimation
 from diffbench.bench.runner import compute_cell, preset_entry
+from diffbench.bench.studies import robot
+from diffbench.bench.studies.identification import decimation_factor, idim_ls, parallel_decimation
 from diffbench.signals import robot2r
 from tests.signals import dfki_synthetic as syn
 
@@ -224,7 +224,7 @@ def test_dfki_fold_scores_the_measured_torque_at_the_logged_time_stamps():
     torque as logged; the stored score equals a direct recomputation from the estimate at the
     logged times, is about as good as the lab's published model, and the filtered score (both
     sides decimated) is smaller than the raw one."""
-    from diffbench.bench.robot import DfkiCrossValidation, score_dfki_fold
+    from diffbench.bench.studies.robot import DfkiCrossValidation, score_dfki_fold
 
     spec = DfkiCrossValidation()
     method = methods.preset("savitzky_golay", "robot")
@@ -248,7 +248,7 @@ def test_dfki_finite_differences_are_worst_on_raw_torque_not_on_filtered():
     """Raw torque separates the methods: finite differences pass the encoder's quantisation
     noise to q̈ (raw joint-1 error 12 N·m on run 2 against 0.12 for Butterworth); decimating
     both sides hides most of it (0.52 against 0.10)."""
-    from diffbench.bench.robot import DfkiCrossValidation, score_dfki_fold
+    from diffbench.bench.studies.robot import DfkiCrossValidation, score_dfki_fold
 
     spec = DfkiCrossValidation()
     scores = {}
@@ -261,7 +261,7 @@ def test_dfki_finite_differences_are_worst_on_raw_torque_not_on_filtered():
 
 
 def test_dfki_passive_joints_are_not_scored():
-    from diffbench.bench.robot import DfkiCrossValidation, score_dfki_fold
+    from diffbench.bench.studies.robot import DfkiCrossValidation, score_dfki_fold
 
     method = methods.get("finite_difference")
     metrics = {r["metric"] for r in score_dfki_fold(method, DfkiCrossValidation(), 3)}
@@ -287,7 +287,7 @@ def test_nested_settings_never_see_the_held_out_run(tmp_path):
     (checked by scoring every candidate)."""
     import gzip
 
-    from diffbench.bench.robot import (
+    from diffbench.bench.studies.robot import (
         DfkiCrossValidation,
         candidate_settings,
         choose_setting,

@@ -9,8 +9,9 @@ import pandas as pd
 import pytest
 
 from diffbench import methods, signals
-from diffbench.bench import limit, tasks
+from diffbench.bench import tasks
 from diffbench.bench.cli import main
+from diffbench.bench.studies import limit
 
 
 @pytest.mark.parametrize("name", ["limit-iwn3-0.001", "limit-iwn3-0.01", "limit-iwn3-0.1"])
@@ -146,7 +147,7 @@ def test_the_surrogate_criterion_tunes_on_the_data_alone():
     # the realisation's truth is never read: the same setting with the truth replaced
     import dataclasses
 
-    from diffbench.bench import tuning
+    from diffbench.bench.core import tuning
 
     realisation = signals.get_scenario("limit-iwn3-0.01").realise(10_000)
     first = tuning.tune("savitzky_golay", realisation, 1, "surrogate", max_evaluations=60)

@@ -6,8 +6,8 @@ import pandas as pd
 import pytest
 
 from diffbench import methods
-from diffbench.bench import loop
 from diffbench.bench.cli import main
+from diffbench.bench.studies import loop
 from diffbench.signals import robot2r
 
 

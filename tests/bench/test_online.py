@@ -8,8 +8,8 @@ import pytest
 from scipy import signal as sps
 
 from diffbench import methods
-from diffbench.bench import online
 from diffbench.bench.cli import main
+from diffbench.bench.studies import online
 
 DT = 1e-3
 
@@ -142,7 +142,7 @@ def test_the_online_task_refuses_an_offline_method(tmp_path, capsys):
 )
 def test_causal_methods_are_tuned_like_the_others(name):
     from diffbench import signals
-    from diffbench.bench import tuning
+    from diffbench.bench.core import tuning
 
     scenario = signals.get_scenario("paper-signal")
     result = tuning.tune(name, scenario.realise(10_000), 1, "oracle", max_evaluations=30)
@@ -158,7 +158,8 @@ def test_causal_methods_are_tuned_like_the_others(name):
 
 def test_causal_methods_are_left_out_of_irregularly_sampled_tasks_by_name(capsys):
     from diffbench import signals
-    from diffbench.bench import grid, tasks
+    from diffbench.bench import tasks
+    from diffbench.bench.studies import grid
 
     task = tasks.get_task("grid-gaussian-0.2-10ms-jitter")
     entries = task.lineup(["causal_jacobi", "spectral"])
@@ -174,7 +175,7 @@ def test_causal_methods_are_left_out_of_irregularly_sampled_tasks_by_name(capsys
 
 
 def test_the_price_of_causality_is_the_best_causal_rmse_over_the_best_offline():
-    from diffbench.bench import grid
+    from diffbench.bench.studies import grid
 
     records = []
     for method, values in (

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from diffbench import methods, signals
-from diffbench.bench import paper
+from diffbench.bench.studies import paper
 
 
 def _linear_methods():

@@ -5,17 +5,17 @@ import numpy as np
 import pytest
 
 from diffbench import methods, signals
-from diffbench.bench.recommend import recommend
-from diffbench.bench.scores import error_metrics
-from diffbench.bench.spectrum import periodogram, record_spectrum
-from diffbench.bench.surrogates import (
+from diffbench.bench.core.scores import error_metrics
+from diffbench.bench.core.tuning import tune
+from diffbench.bench.studies.recommend import recommend
+from diffbench.bench.studies.spectrum import periodogram, record_spectrum
+from diffbench.bench.studies.surrogates import (
     continuum_spectrum,
     default_scored,
     fit_lines,
     spectral_lines,
     surrogate_records,
 )
-from diffbench.bench.tuning import tune
 
 
 @pytest.fixture(scope="module")

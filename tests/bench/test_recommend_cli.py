@@ -10,7 +10,7 @@ import pytest
 
 from diffbench import signals
 from diffbench.bench.cli import main
-from diffbench.bench.user_data import read_record
+from diffbench.bench.studies.user_data import read_record
 
 DT = 0.002
 

@@ -11,9 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from diffbench.bench import runner, tables
+from diffbench.bench import runner
 from diffbench.bench import store as store_module
-from diffbench.bench.roles import Role
+from diffbench.bench.core.roles import Role
+from diffbench.bench.report import tables
 from diffbench.bench.store import Store
 from diffbench.bench.tasks import available_tasks, get_task
 
@@ -355,7 +356,7 @@ def _square_after(item):
 def test_completed_map_yields_each_result_as_it_finishes():
     """Two workers, the first item the slowest: its result comes last, every result is its
     item's, and one job keeps the items' order."""
-    from diffbench.bench.executor import completed_map
+    from diffbench.bench.core.executor import completed_map
 
     items = [(3, 1.0), (4, 0.0), (5, 0.0)]
     found = list(completed_map(_square_after, items, jobs=2))

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from diffbench.bench.scores import error_metrics, score_estimate
+from diffbench.bench.core.scores import error_metrics, score_estimate
 from diffbench.methods import Estimate
 
 

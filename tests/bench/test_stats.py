@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from diffbench.bench.stats import (
+from diffbench.bench.core.stats import (
     confidence_interval,
     detectable_difference,
     paired_comparison,

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from diffbench.bench.roles import Role
+from diffbench.bench.core.roles import Role
 from diffbench.bench.store import Store
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -146,7 +146,7 @@ def test_another_store_version_is_refused(tmp_path):
 WRITER = textwrap.dedent(
     """
     import sys, time
-    from diffbench.bench.roles import Role
+    from diffbench.bench.core.roles import Role
     from diffbench.bench.store import Store
 
     store = Store(sys.argv[1])

@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from diffbench import methods
-from diffbench.bench import timing
+from diffbench.bench.studies import timing
 
 
 def test_a_method_capped_below_the_smallest_size_is_timed_at_its_cap(tmp_path, monkeypatch):

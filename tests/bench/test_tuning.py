@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from diffbench import methods, signals
-from diffbench.bench import tuning
 from diffbench.bench.cli import main
+from diffbench.bench.core import tuning
 from diffbench.methods import Method, Preset, param, register
 from diffbench.methods.spectral import EXTENSIONS
 
@@ -380,7 +380,7 @@ def test_tuning_table_keeps_each_tuning_apart_on_the_interior_and_the_whole_reco
     averaged together), each scored on the interior and on the whole record."""
     import pandas as pd
 
-    from diffbench.bench.reports import tuning_table
+    from diffbench.bench.studies.reports import tuning_table
 
     def cells(origin, criterion, seeds, region_tuned, interior, whole, coverage):
         rows = []
@@ -452,7 +452,7 @@ def test_irregular_samples_are_tuned_at_their_time_stamps_by_the_oracle_only():
     import numpy as np
 
     from diffbench import methods, signals
-    from diffbench.bench import tuning
+    from diffbench.bench.core import tuning
 
     realisation = signals.get_scenario("grid-gaussian-0.2-10ms-jitter").realise(1)
     with pytest.raises(ValueError, match="needs uniform samples"):

@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from diffbench.bench.user_data import MIN_SAMPLES, read_record
+from diffbench.bench.studies.user_data import MIN_SAMPLES, read_record
 
 
 def _jittered_times(n: int, step: float, seed: int = 0) -> np.ndarray:

@@ -118,7 +118,7 @@ def test_out_of_range_parameters_name_the_argument_and_range(name, params, messa
 
 @pytest.mark.parametrize("name", _registered())
 def test_windows_and_frequencies_say_their_kind(name):
-    """``kind`` is declared, never guessed, and says what the name suffixes bench/tuning.py
+    """``kind`` is declared, never guessed, and says what the name suffixes bench/core/tuning.py
     guessed from (``*window_s``, ``*_hz``; other times ``*_s`` are durations): reading
     ``spec.kind`` instead changes nothing."""
     for spec in methods.params_of(methods.method_class(name)):

@@ -8,7 +8,7 @@ import pytest
 from scipy import linalg
 
 from diffbench import methods
-from diffbench.bench import timing
+from diffbench.bench.studies import timing
 from diffbench.methods import _fft
 from diffbench.methods import spectral as spectral_module
 from diffbench.methods.spectral import (

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import integrate, linalg
 
-from diffbench.bench.limit import optimal_states
+from diffbench.bench.studies.limit import optimal_states
 from diffbench.signals import NoiseStack, Scenario
 from diffbench.signals.noise import Gaussian
 from diffbench.signals.stochastic import (

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from diffbench import methods
-from diffbench.bench.timing import filterpy_smoother, noisy_sine
+from diffbench.bench.studies.timing import filterpy_smoother, noisy_sine
 from diffbench.methods.kalman import initial_state
 
 DT = 1e-3

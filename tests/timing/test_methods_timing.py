@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from diffbench import methods
-from diffbench.bench.timing import size_cap, timed_sizes, timing_instance
+from diffbench.bench.studies.timing import size_cap, timed_sizes, timing_instance
 
 DT = 1e-3
 SIZES = [10_000, 100_000, 1_000_000]

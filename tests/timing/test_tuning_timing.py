@@ -12,7 +12,8 @@ import pytest
 from scipy.signal import savgol_filter
 
 from diffbench import methods
-from diffbench.bench import timing, tuning
+from diffbench.bench.core import tuning
+from diffbench.bench.studies import timing
 
 pynumdiff = pytest.importorskip("pynumdiff")
 DT = 1e-3

@@ -15,10 +15,10 @@ from pathlib import Path
 import pandas as pd
 
 from diffbench import methods, signals
-from diffbench.bench import tables
-from diffbench.bench.roles import ORDER_SYMBOLS
-from diffbench.bench.runner import Cell, TuningJob, tuned_entries
-from diffbench.bench.stats import ranking
+from diffbench.bench.core.plan import Cell, TuningJob, tuned_entries
+from diffbench.bench.core.roles import ORDER_SYMBOLS
+from diffbench.bench.core.stats import ranking
+from diffbench.bench.report import tables
 from diffbench.signals.scenarios import (
     GRID_NOISE_LEVELS,
     GRID_NOISE_TYPES,
@@ -100,7 +100,7 @@ def winners(rows: pd.DataFrame, order: int = 2, region: str = "interior") -> pd.
 
     ``region`` is ``"interior"`` (the samples every method is scored on) or ``"valid"`` (the
     whole record: each entry's own valid samples, entries covering less than
-    :data:`diffbench.bench.tables.WHOLE_COVERAGE` of it on some seed left out).
+    :data:`diffbench.bench.report.tables.WHOLE_COVERAGE` of it on some seed left out).
     """
     if region not in ("interior", "valid"):
         raise ValueError(f"`region` must be 'interior' or 'valid', got {region!r}")

@@ -184,7 +184,7 @@ def error_scales(rmse: Mapping[str, float], peak: Mapping[str, float]) -> ErrorS
 # --- the benchmark's question: mean error with its confidence interval, per method setting ----
 def _is_preset(table: pd.DataFrame) -> np.ndarray:
     """Whether each row is a preset: from the stored ``origin`` column when the table has it
-    (:func:`diffbench.bench.tables.wide_table` keeps it), else from the setting's label
+    (:func:`diffbench.bench.report.tables.wide_table` keeps it), else from the setting's label
     (``preset (paper)``, ``preset (diffbench)``, ``class defaults``)."""
     if "origin" in table.columns:
         return (table["origin"] == "preset").to_numpy()
@@ -280,7 +280,7 @@ def write_error_figure(
     ----------
     table : pandas.DataFrame
         One row per method setting with the columns :data:`ERROR_FIGURE_COLUMNS` (as
-        :func:`diffbench.bench.tables.wide_table` writes them); NaN means are skipped, NaN
+        :func:`diffbench.bench.report.tables.wide_table` writes them); NaN means are skipped, NaN
         half-widths drawn without whiskers.
     path : pathlib.Path
         The PNG to write (its folder is created).
@@ -300,7 +300,7 @@ def write_error_figure(
     Presets are filled diamonds, tuned or other settings open circles, coloured by method
     (:func:`method_styles`). The grey band is the 95 % CI of the best row of the panel: rows
     whose interval overlaps it are not clearly worse (a hint; the paired tests of
-    :mod:`diffbench.bench.stats` decide). A lower whisker that would reach below a tenth of the
+    :mod:`diffbench.bench.core.stats` decide). A lower whisker that would reach below a tenth of the
     mean (on a log axis 0 is out of sight) is cut there, and the figure says how many were.
     """
     points = error_figure_data(table)
@@ -440,7 +440,7 @@ def write_error_figure(
     return path
 
 
-# --- drawing helpers shared with bench/paper.py --------------------------------------------
+# --- drawing helpers shared with bench/studies/paper.py ----------------------------------
 PNG_METADATA = {"Software": None}
 """What a PNG says of its maker: nothing (matplotlib writes its version by default), so that a
 figure's bytes depend on its data and its drawing alone."""

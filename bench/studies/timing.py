@@ -13,8 +13,8 @@ import numpy as np
 import pandas as pd
 
 from diffbench import methods
-from diffbench.bench import figures
-from diffbench.bench.runner import preset_entry
+from diffbench.bench.core.plan import preset_entry
+from diffbench.bench.report import figures
 
 DT = 1e-3
 
@@ -405,7 +405,7 @@ def tuning_against_pynumdiff(
     samples: int = 1000, margin: int = 150, names=None, repeats: int = 3
 ) -> list[dict]:
     """Oracle tuning for ẋ (RMSE against the exact derivative on ``[margin, samples - margin)``
-    of the first ``samples`` of paper-signal seed 0) by :func:`diffbench.bench.tuning.tune`
+    of the first ``samples`` of paper-signal seed 0) by :func:`diffbench.bench.core.tuning.tune`
     against PyNumDiff's ``optimize`` (the same objective, its default search space), for each
     pair of :data:`TUNING_PEERS` (``names``: ours, default all). Both sides are warmed up alike,
     by an untimed run of the whole tuning (PyNumDiff's with ``maxiter=1``), so that one-off costs
@@ -419,7 +419,7 @@ def tuning_against_pynumdiff(
     import pynumdiff
     from pynumdiff.optimize import optimize
 
-    from diffbench.bench import tuning
+    from diffbench.bench.core import tuning
 
     record = _paper_signal_head(samples, margin)
     x, truth = np.asarray(record.x), np.asarray(record.truth[1])

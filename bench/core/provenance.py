@@ -15,7 +15,7 @@ def provenance() -> dict[str, str]:
     """``{"versions": "python=3.11.7;blas=openblas 0.3.31 SkylakeX;plugin=mod (dist 1.0);
     numpy=...", "git_rev": "<sha>[+dirty]"}``. The BLAS kernel is chosen at run time from the
     CPU and changes the last bits of results (see
-    :func:`diffbench.bench.tuning.comparable_loss`); plugins are the method modules loaded
+    :func:`diffbench.bench.core.tuning.comparable_loss`); plugins are the method modules loaded
     from outside diffbench (see ``diffbench.methods._plugins``)."""
     from diffbench import methods
 

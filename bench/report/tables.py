@@ -19,8 +19,8 @@ import pandas as pd
 
 from diffbench import methods
 from diffbench.bench import store
-from diffbench.bench.roles import ORDER_SYMBOLS, Role
-from diffbench.bench.stats import confidence_interval
+from diffbench.bench.core.roles import ORDER_SYMBOLS, Role
+from diffbench.bench.core.stats import confidence_interval
 
 ENTRY_KEYS = ["method", "params", "role"]
 ROLE_COLUMNS = list(store.ROLE_COLUMNS)
@@ -253,7 +253,7 @@ def write_report(
 
 def legend(rows: pd.DataFrame, extra: str = "") -> str:
     """One short legend: what each setting in these rows means (presets with their source)."""
-    from diffbench.bench.roles import CRITERION_LEGEND, CRITERION_NAMES
+    from diffbench.bench.core.roles import CRITERION_LEGEND, CRITERION_NAMES
 
     lines = []
     table = entries(rows)

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from diffbench.bench.roles import ORDER_SYMBOLS
+from diffbench.bench.core.roles import ORDER_SYMBOLS
 from diffbench.signals.noise import Gaussian
 from diffbench.signals.stochastic import (
     BandLimited,
@@ -241,7 +241,7 @@ EFFICIENCY_LEGEND = (
 def _efficiency_columns(table: pd.DataFrame) -> dict[str, list[str]]:
     """The people's columns of an efficiency table: efficiency ± its interval, the method's
     RMSE and the least RMSE."""
-    from diffbench.bench import tables
+    from diffbench.bench.report import tables
 
     return {
         "efficiency": [
@@ -256,7 +256,7 @@ def _efficiency_columns(table: pd.DataFrame) -> dict[str, list[str]]:
 def write_efficiency_report(cells: pd.DataFrame, directory) -> list:
     """``efficiency.md``/``.csv``: :func:`efficiency_table` of the cells, one row per entry and
     order, best first within each order."""
-    from diffbench.bench import tables
+    from diffbench.bench.report import tables
 
     table = efficiency_table(cells)
     if table.empty:
@@ -299,7 +299,7 @@ def task_names() -> list[str]:
 
 CRITERIA = ("oracle", "surrogate")
 """How the study tunes each method: against the truth (the best the method can do) and from
-the data alone (:func:`diffbench.bench.tuning.tune`'s surrogate criterion, the procedure of
+the data alone (:func:`diffbench.bench.core.tuning.tune`'s surrogate criterion, the procedure of
 ``diffbench recommend``: what a user without the truth would get)."""
 
 
@@ -307,7 +307,7 @@ def tuning_jobs(names, orders=(1, 2), tasks=None, criteria=CRITERIA) -> list:
     """Each method of ``names`` tuned by each of ``criteria`` for each order the task's signal
     has (``tasks``: default every limit scenario) on seed :data:`TUNING_SEED`."""
     from diffbench import signals
-    from diffbench.bench.runner import TuningJob
+    from diffbench.bench.core.plan import TuningJob
 
     return [
         TuningJob(task, name, criterion, int(order), TUNING_SEED, None, BUDGET)
@@ -347,7 +347,7 @@ def write_study(cells: pd.DataFrame, directory) -> list:
     per method, a panel per signal family and order)."""
     from pathlib import Path
 
-    from diffbench.bench import figures, tables
+    from diffbench.bench.report import figures, tables
 
     directory = Path(directory)
     table = study_table(cells)
@@ -529,7 +529,7 @@ def pareto_front(name: str, realisation, max_evaluations: int = 150, seed: int =
     setting the oracle tuning tries (a spread over the method's tuning ranges, densest near
     the optimum), scored without the truth (fit, roughness) and with it (RMSE)."""
     from diffbench import methods
-    from diffbench.bench import tuning
+    from diffbench.bench.core import tuning
 
     result = tuning.tune(name, realisation, 1, "oracle", max_evaluations=max_evaluations, seed=seed)
     x, dt = np.asarray(realisation.x, dtype=float), realisation.dt_s
@@ -565,7 +565,7 @@ def write_pareto(fronts: list[Front], task: str, directory) -> list:
     against roughness, the front, the knee and the oracle's setting)."""
     from pathlib import Path
 
-    from diffbench.bench import figures, tables
+    from diffbench.bench.report import figures, tables
 
     directory = Path(directory)
     rows = [

@@ -1,11 +1,11 @@
 r"""Which differentiator for this record, with which settings, and how wrong: from the data.
 
 :func:`recommend` reads the record's noise floor and signal band from its periodogram
-(:mod:`diffbench.bench.spectrum`; nothing typed in), draws surrogate records with the same
-spectrum whose truth is known (:mod:`diffbench.bench.surrogates`), tunes every method on some
-of them with the oracle criterion, scores the tuned setting on the others, and ranks the
-methods by that predicted RMSE (mean ± standard deviation over the scoring surrogates). Linear
-or not, native or a peer's: every method is tuned and scored the same way.
+(:mod:`~diffbench.bench.studies.spectrum`; nothing typed in), draws surrogate records with the
+same spectrum whose truth is known (:mod:`~diffbench.bench.studies.surrogates`), tunes every
+method on some of them with the oracle criterion, scores the tuned setting on the others, and
+ranks the methods by that predicted RMSE (mean ± standard deviation over the scoring
+surrogates). Linear or not, native or a peer's: every method is tuned and scored the same way.
 
 The record is divided by its half range first (:func:`record_scale`) and every error scaled
 back: the recommendation for ``c·x`` is that for ``x``, its errors ``c`` times as large, from
@@ -33,11 +33,11 @@ import numpy as np
 import pandas as pd
 
 from diffbench import methods
-from diffbench.bench import figures
-from diffbench.bench.scores import error_metrics
-from diffbench.bench.spectrum import RecordSpectrum, record_spectrum
-from diffbench.bench.surrogates import default_scored, surrogate_records
-from diffbench.bench.tuning import tune
+from diffbench.bench.core.scores import error_metrics
+from diffbench.bench.core.tuning import tune
+from diffbench.bench.report import figures
+from diffbench.bench.studies.spectrum import RecordSpectrum, record_spectrum
+from diffbench.bench.studies.surrogates import default_scored, surrogate_records
 
 TUNING_SURROGATES = 2
 """Surrogates a method is tuned on (their mean loss: one draw can favour a setting by luck)."""
@@ -196,13 +196,14 @@ def _tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed) -> di
 
 
 def recommend_record(record, names=None, orders=(1, 2), seed=0, max_evaluations=None):
-    """:func:`recommend` for each channel of a :class:`~diffbench.bench.user_data.UserRecord`,
-    and the best method's estimates on the record itself (at its time stamps when it has
-    irregular ones; the recommendation then runs on the record resampled, as a resampled
-    method's is, onto the grid of its span with the step nearest its nominal one), computed on
-    the channel divided by the recommendation's ``scale`` and scaled back. Returns
-    ``{channel: (Recommendation, {order: Estimate})}``; a ``ValueError`` when no method could
-    be recommended for an order."""
+    """:func:`recommend` for each channel of a
+    :class:`~diffbench.bench.studies.user_data.UserRecord`, and the best method's estimates on
+    the record itself (at its time stamps when it has irregular ones; the recommendation then
+    runs on the record resampled, as a resampled method's is, onto the grid of its span with the
+    step nearest its nominal one), computed on the channel divided by the recommendation's
+    ``scale`` and scaled back. Returns ``{channel: (Recommendation, {order: Estimate})}``; a
+    ``ValueError`` when no method could be recommended for an order.
+    """
     irregular = record.t is not None and not record.uniform
     if irregular:  # onto the grid a resampled method would use (methods._time_stamps)
         grid, grid_step = methods.uniform_grid(record.t, record.dt_s)
@@ -234,7 +235,7 @@ def write_recommendation(record, results, out: Path) -> list[Path]:
     the samples and the smoothed signal, ẋ, and the periodogram with the noise floor and band)
     in ``out``. What reading the record warned about (``record.notes``) heads ``ranking.md``.
     """
-    from diffbench.bench.tables import markdown_table
+    from diffbench.bench.report.tables import markdown_table
 
     out.mkdir(parents=True, exist_ok=True)
     frames, header = [], [f"# Recommendation for {record.source}", ""]
@@ -375,7 +376,7 @@ def validate(scenario: str, names=VALIDATION_METHODS, seed: int = 0, max_evaluat
     interior RMSE on the record, and the best true RMSE any of ``names`` reaches tuned by the
     oracle on the same record (the most a data-only choice could reach).
 
-    Beside it, PyNumDiff's data-only tuning (its loss, :func:`~diffbench.bench.tuning.
+    Beside it, PyNumDiff's data-only tuning (its loss, :func:`~diffbench.bench.core.tuning.
     no_truth_loss`, with its weight γ from a bandlimit guess: the band ``recommend`` read off
     the periodogram) tunes each of ``names`` and picks the one of lowest loss: its true RMSE
     (``pynumdiff_*`` columns). Both ratios to the best known: :func:`with_best_known`."""
@@ -479,7 +480,7 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
     """``validation.csv`` (every row) and ``validation.md`` (per order: median and worst ratio
     of the recommendation and of PyNumDiff's data-only tuning, then every scenario) in
     ``out``."""
-    from diffbench.bench.tables import markdown_table
+    from diffbench.bench.report.tables import markdown_table
 
     out.mkdir(parents=True, exist_ok=True)
     rows = [with_best_known(row) for row in rows]

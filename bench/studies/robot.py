@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from diffbench.bench.identification import (
+from diffbench.bench.studies.identification import (
     Identification,
     decimation_factor,
     idim_ls,
@@ -369,7 +369,7 @@ def model_error_ratio(record, model: PendulumModel, spec: DfkiCrossValidation) -
     None when it cannot be computed (no actuated joint, no estimated sample inside, the method
     refuses the record): the run itself then says what is wrong.
 
-    Measured (bench/robot.py tests): the packaged model on the six packaged runs, 1.16-2.66;
+    Measured (bench/studies/robot.py tests): the packaged model on the six packaged runs, 1.16-2.66;
     the lab's design A.0 model (l1 = 0.3 m) on them, 5.1-16.8 on five runs and 1.36 on run 4
     (joint 2 alone, where the designs differ least); the lab's design C.1 model_3.0 on them,
     2.5-6.9; the packaged model on a simulated design-A.0 robot with 0.02 N·m torque noise,
@@ -495,14 +495,14 @@ def inner_loss(method: Method, spec: DfkiCrossValidation, held_out: int) -> floa
 
 def candidate_settings(method: Method, spec: DfkiCrossValidation) -> list[Method]:
     """``method`` itself, then ``spec.candidates`` settings drawn by a scrambled Sobol sequence
-    (seed 0) over its tuning ranges (:func:`diffbench.bench.tuning.search_space`: log scale
+    (seed 0) over its tuning ranges (:func:`diffbench.bench.core.tuning.search_space`: log scale
     where declared, choices and small integer ranges value by value, windows snapped to the
     step), the parameters not searched kept at ``method``'s values; settings the method
     refuses are left out. The same list for every fold."""
     from scipy.stats import qmc
 
     from diffbench import methods
-    from diffbench.bench import tuning
+    from diffbench.bench.core import tuning
 
     record = dfki_record(spec.records[0])
     dimensions = tuning.search_space(method.name, spec.nominal_dt_s, record.t.size)

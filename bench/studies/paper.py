@@ -8,7 +8,7 @@ fig. 2 — Bode magnitude of the second-order linear differentiators against the
 fig. 3 — influence of κ = μ, q and T on the Jacobi Bode magnitude (Ts = 1 ms);
 fig. 5 — errors of q̇1 and q̈1 on the simulated robot, one row of panels per method.
 A method whose error dwarfs the others' is drawn on its own y range and flagged
-(:func:`diffbench.bench.figures.error_scales`).
+(:func:`diffbench.bench.report.figures.error_scales`).
 """
 
 from __future__ import annotations
@@ -20,8 +20,9 @@ import numpy as np
 import pandas as pd
 
 from diffbench import methods, signals
-from diffbench.bench import executor, figures
-from diffbench.bench.frequency import cutoff_hz, ideal_response, noise_gain
+from diffbench.bench.core import executor
+from diffbench.bench.report import figures
+from diffbench.bench.studies.frequency import cutoff_hz, ideal_response, noise_gain
 
 DT = 1e-3
 SCENARIO = "paper-signal"
@@ -374,7 +375,7 @@ def write_figure3(directory: Path) -> list[Path]:
 def write_frequency_table(directory: Path, names=None) -> list[Path]:
     """``frequency.md`` / ``.csv``: cutoff, white-noise gain and gain at 15 Hz per linear
     method at its paper-signal preset (the Markdown from what the CSV holds)."""
-    from diffbench.bench import tables
+    from diffbench.bench.report import tables
 
     csv = tables.write_csv(directory / "frequency.csv", frequency_table(names=names))
     stored = pd.read_csv(csv)
@@ -494,7 +495,7 @@ def error_profile_data(seeds: int = 20, names=None, jobs=1, progress=None) -> pd
     ``t_s``, ``position`` (:math:`i/(N-1)`), ``interior`` and, per method,
     ``<method>_velocity_rms_error`` and ``<method>_acceleration_rms_error``.
 
-    ``jobs``: where each (method, seed) runs (:func:`diffbench.bench.executor.ordered_map`);
+    ``jobs``: where each (method, seed) runs (:func:`diffbench.bench.core.executor.ordered_map`);
     the sums are taken here in seed order, so the result is the same bits for any ``jobs``.
     ``progress(iterable, total)`` wraps the results as they come (e.g. a tqdm bar).
     """
@@ -545,7 +546,7 @@ def write_error_profile(
     """``error_vs_position.csv`` (:func:`error_profile_data`), ``error_vs_position.png`` drawn
     from it (RMS error of ẋ and ẍ against position, log scale, one line per method) and
     ``ends.md``/``.csv`` (:func:`ends_table`)."""
-    from diffbench.bench import tables
+    from diffbench.bench.report import tables
 
     csv = directory / "error_vs_position.csv"
     error_profile_data(seeds, names, jobs, progress).to_csv(csv, index=False)

@@ -8,9 +8,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from diffbench.bench import loop, online, tables
-from diffbench.bench.roles import ORDER_SYMBOLS
-from diffbench.bench.stats import ranking
+from diffbench.bench.core.roles import ORDER_SYMBOLS
+from diffbench.bench.core.stats import ranking
+from diffbench.bench.report import tables
+from diffbench.bench.studies import loop, online
 
 INTERIOR_NOTE = (
     "- **interior**: the task's common interior, the same samples for every method; **whole**: "
@@ -37,7 +38,7 @@ def signal_report(
 ) -> list[Path]:
     """``rmse``, ``ranking``, ``decomposition`` (linear methods), ``tuning`` (if tuned) tables
     and the error figure of a signal task."""
-    from diffbench.bench.figures import write_error_figure
+    from diffbench.bench.report.figures import write_error_figure
 
     wide = tables.wide_table(cells, tables.RMSE_COLUMNS)
     title = f"`{task}`: RMSE per method and setting (mean ± 95 % CI over {_seeds_phrase(cells)})"
@@ -348,8 +349,8 @@ def identification_shown(table: pd.DataFrame, reference: str | None) -> pd.DataF
 
 def robot_sim_report(scenario, cells: pd.DataFrame, directory: Path) -> list[Path]:
     """``table2`` (the paper's table II layout with the truth), ``summary`` and fig. 5."""
-    from diffbench.bench import paper
-    from diffbench.bench.robot import well_excited
+    from diffbench.bench.studies import paper
+    from diffbench.bench.studies.robot import well_excited
     from diffbench.signals import robot2r
 
     table = identification_table(cells, robot2r.PARAMETER_NAMES, scenario.true_parameters)
@@ -387,7 +388,12 @@ def dfki_report(cells: pd.DataFrame, directory: Path, spec) -> list[Path]:
     """``summary`` (held-out measured torque, raw and filtered, beside the lab's model, ranked by
     joint 1), ``settings`` (what nested cross-validation chose on each fold) and ``table2``
     (parameters beside the lab's)."""
-    from diffbench.bench.robot import NESTED_VARIANT, lab_reference, parameter_names, setting_of
+    from diffbench.bench.studies.robot import (
+        NESTED_VARIANT,
+        lab_reference,
+        parameter_names,
+        setting_of,
+    )
 
     folds = len(spec.records)
     wide = tables.wide_table(cells, DFKI_SUMMARY)
@@ -453,7 +459,7 @@ def dfki_report(cells: pd.DataFrame, directory: Path, spec) -> list[Path]:
             "DFKI double pendulum: the setting nested cross-validation chose for each held-out "
             "run (never seeing it), and its pooled raw-torque RMSE over the other runs",
             "Chosen among the method's preset and Sobol draws of its tuning ranges "
-            "(bench/robot.py: candidate_settings).",
+            "(bench/studies/robot.py: candidate_settings).",
         )
     identified = parameter_names(spec)
     table = identification_table(cells, identified, reference=("lab", lab_reference(spec)))
@@ -493,7 +499,7 @@ ONLINE_LEGEND = (
 def online_table(cells: pd.DataFrame) -> pd.DataFrame:
     """One row per entry and derivative order (1, 2): the means over seeds of the online
     scores, and ``front`` (on its method's Pareto front of |delay| and compensated RMSE)."""
-    from diffbench.bench.online import pareto_front
+    from diffbench.bench.studies.online import pareto_front
 
     summary = tables.summarise(cells)
     labelled = tables.label_entries(tables.entries(cells))
@@ -541,7 +547,7 @@ def _online_shown(table: pd.DataFrame) -> pd.DataFrame:
 def online_report(task: str, description: str, cells: pd.DataFrame, directory: Path) -> list[Path]:
     """``sweep`` (every setting), ``front`` (each method's Pareto front), ``best`` (each
     method's least RMSE at the time) and the error-against-delay figure of an online task."""
-    from diffbench.bench.figures import write_online_figure
+    from diffbench.bench.report.figures import write_online_figure
 
     table = online_table(cells)
     seeds = _seeds_phrase(cells)

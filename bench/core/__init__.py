@@ -1,0 +1,2 @@
+"""Infrastructure every benchmark shares: plans (cells, entries, tuning jobs), the executor,
+tuning, scores, statistics, provenance and roles."""

@@ -1,0 +1,1 @@
+"""Generic writers of tables and figures (Markdown/CSV tables, matplotlib figures)."""

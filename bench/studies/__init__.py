@@ -1,0 +1,1 @@
+"""The science of each benchmark: the computations and report writers the tasks use."""
