@@ -20,13 +20,15 @@ import warnings
 from importlib import metadata
 from pathlib import Path
 
-from diffbench import methods
-from diffbench.bench import runner, uptodate
-from diffbench.bench.core import executor
+from diffbench import methods, signals
+from diffbench.bench import runner
+from diffbench.bench.core import executor, tuning, uptodate
 from diffbench.bench.core.executor import Terminated, terminate_on_sigterm
 from diffbench.bench.core.provenance import provenance
-from diffbench.bench.store import Store, StoreError, set_command
+from diffbench.bench.core.store import Store, StoreError, set_command
+from diffbench.bench.studies import grid, limit, paper, recommend, timing, user_data
 from diffbench.bench.tasks import available_tasks, dfki_task, get_task
+from diffbench.signals.dfki import load_pendulum_model
 
 EXIT_INTERNAL = 1
 EXIT_USAGE = 2
@@ -695,8 +697,6 @@ def _task_of(args):
     if getattr(args, "jobs", 1) > 1 and not executor.forks():
         args.jobs = 1  # workers started afresh would not know a task registered here
     if model is not None:
-        from diffbench.signals.dfki import load_pendulum_model
-
         with user_input("--robot-model: "):
             model = load_pendulum_model(model)
     with user_input("--records: "):
@@ -728,7 +728,6 @@ def _cmd_report(args) -> None:
 
 
 def _check_cutoff(cutoff_hz: float, task, criteria, region: str) -> None:
-    from diffbench.bench.core import tuning
 
     realisation = task.tuning_data(0)
     for criterion in criteria:
@@ -818,7 +817,6 @@ def _tune(jobs_list, store: Store, args):
 
 
 def _cmd_grid(args) -> None:
-    from diffbench.bench.studies import grid
 
     store = _open_store(args.out)
     found, _ = _tune(grid.tuning_jobs(args.orders, _method_names(args.methods)), store, args)
@@ -834,7 +832,6 @@ def _cmd_grid(args) -> None:
 
 
 def _cmd_limit(args) -> None:
-    from diffbench.bench.studies import grid, limit
 
     tasks = args.scenarios or limit.task_names()
     unknown = sorted(set(tasks) - set(limit.task_names()))
@@ -857,7 +854,6 @@ def _cmd_limit(args) -> None:
 
 
 def _cmd_pareto(args) -> None:
-    from diffbench.bench.studies import limit
 
     task = _task(args.task)
     with user_input():
@@ -876,7 +872,6 @@ def _cmd_pareto(args) -> None:
 
 
 def _cmd_paper_figures(args) -> None:
-    from diffbench.bench.studies import paper
 
     directory = args.out / "paper-figures"
     directory.mkdir(parents=True, exist_ok=True)
@@ -896,8 +891,6 @@ def _cmd_paper_figures(args) -> None:
 
 
 def _cmd_export(args) -> None:
-    from diffbench import signals
-    from diffbench.bench.studies import user_data
 
     with user_input():
         realisation = signals.get_scenario(args.scenario).realise(args.seed)
@@ -906,7 +899,6 @@ def _cmd_export(args) -> None:
 
 
 def _cmd_recommend(args) -> None:
-    from diffbench.bench.studies import recommend, user_data
 
     names = _method_names(args.methods)
     with user_input():
@@ -929,8 +921,6 @@ VALIDATION = "recommend-validation"
 
 
 def _cmd_recommend_check(args) -> None:
-    from diffbench import signals
-    from diffbench.bench.studies import recommend
 
     names = _method_names(args.methods) or list(recommend.VALIDATION_METHODS)
     scenarios = args.scenarios or [
@@ -970,7 +960,6 @@ def _cmd_recommend_check(args) -> None:
 
 
 def _cmd_timing(args) -> None:
-    from diffbench.bench.studies import timing
 
     sizes = [size for size in timing.SIZES if size < args.largest] + [args.largest]
     table = timing.throughput(sizes=sizes, progress=lambda line: print(line, flush=True))

@@ -29,7 +29,7 @@ from diffbench.bench.core.plan import (
     tuned_entries,
     unique,
 )
-from diffbench.bench.store import Store, canonical
+from diffbench.bench.core.store import Store, canonical
 from diffbench.bench.tasks import get_task
 from diffbench.methods._plugins import plugin_of_module
 

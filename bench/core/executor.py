@@ -29,6 +29,8 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from typing import Any
 
+from diffbench.methods import load_plugin
+
 PARENT_POLL_S = 0.25
 MAX_JOBS = 1024
 """The most worker processes (``--jobs``) a run starts."""
@@ -106,7 +108,6 @@ def _dask_client(spec: DaskWorkers):
 
 def _with_plugins(plugins: tuple[str, ...], function: Callable[[Any], Any], item: Any) -> Any:
     """``function(item)`` on a worker that has loaded ``plugins`` (once per process)."""
-    from diffbench.methods import load_plugin
 
     for module in plugins:
         load_plugin(module)

@@ -1,6 +1,6 @@
 """What a benchmark computes, as data: cells (a method with its parameters on a task for one
 seed), entries (a row of a comparison: cells over seeds) and tuning jobs. Keys come from the
-store (:func:`~diffbench.bench.store.cell_key`), so a cell is found again wherever it was
+store (:func:`~diffbench.bench.core.store.cell_key`), so a cell is found again wherever it was
 stored; nothing here computes or writes anything."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from typing import Any
 
 from diffbench import methods
 from diffbench.bench.core.roles import Role
-from diffbench.bench.store import cell_key, computation_key
+from diffbench.bench.core.store import cell_key, computation_key
 
 
 @dataclass(frozen=True, eq=False)

@@ -8,7 +8,14 @@ import subprocess
 from importlib import metadata
 from pathlib import Path
 
+from diffbench import methods
+
 PACKAGES = ("diffbench", "numpy", "scipy", "pandas", "pysindy", "filterpy")
+
+
+SOURCE_ROOT = Path(__file__).resolve().parents[2]
+"""The folder holding diffbench's sources (``methods/``, ``signals/``, ``bench/``): the git
+checkout in development, the installed ``diffbench`` folder otherwise."""
 
 
 def provenance() -> dict[str, str]:
@@ -17,7 +24,6 @@ def provenance() -> dict[str, str]:
     CPU and changes the last bits of results (see
     :func:`diffbench.bench.core.tuning.comparable_loss`); plugins are the method modules loaded
     from outside diffbench (see ``diffbench.methods._plugins``)."""
-    from diffbench import methods
 
     machine, packages, git_rev = _fixed_provenance()
     plugins = tuple(f"plugin={plugin.label}" for plugin in methods.loaded_plugins())
@@ -57,7 +63,7 @@ def blas_kernel() -> str:
 def git_revision(directory: Path | None = None) -> str:
     """The checked-out commit of the diffbench sources, ``+dirty`` if tracked files outside
     ``results/`` changed; ``unknown`` outside a git checkout."""
-    where = directory or Path(__file__).resolve().parent.parent
+    where = directory or SOURCE_ROOT
     try:
         sha = subprocess.run(
             ["git", "-C", str(where), "rev-parse", "HEAD"],

@@ -39,7 +39,8 @@ from scipy import integrate, optimize
 
 from diffbench import methods
 from diffbench.bench.core.scores import estimate_on, is_uniform
-from diffbench.bench.studies.spectrum import periodogram
+from diffbench.bench.core.spectrum import periodogram, record_spectrum
+from diffbench.bench.core.surrogates import surrogate_records
 
 CRITERIA = ("oracle", "no-truth", "pynumdiff", "surrogate")
 
@@ -463,10 +464,8 @@ def tune(
 
 def _surrogates(realisations, seed: int) -> list:
     """:data:`SURROGATE_RECORDS` surrogate records of each realisation's samples (its truth
-    unused), from its own spectrum (:func:`diffbench.bench.studies.surrogates.surrogate_records`,
+    unused), from its own spectrum (:func:`diffbench.bench.core.surrogates.surrogate_records`,
     the procedure of ``diffbench recommend``), scored where it is."""
-    from diffbench.bench.studies.spectrum import record_spectrum
-    from diffbench.bench.studies.surrogates import surrogate_records
 
     drawn = []
     for index, realisation in enumerate(realisations):

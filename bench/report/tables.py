@@ -18,8 +18,8 @@ import numpy as np
 import pandas as pd
 
 from diffbench import methods
-from diffbench.bench import store
-from diffbench.bench.core.roles import ORDER_SYMBOLS, Role
+from diffbench.bench.core import store
+from diffbench.bench.core.roles import CRITERION_LEGEND, CRITERION_NAMES, ORDER_SYMBOLS, Role
 from diffbench.bench.core.stats import confidence_interval
 
 ENTRY_KEYS = ["method", "params", "role"]
@@ -253,7 +253,6 @@ def write_report(
 
 def legend(rows: pd.DataFrame, extra: str = "") -> str:
     """One short legend: what each setting in these rows means (presets with their source)."""
-    from diffbench.bench.core.roles import CRITERION_LEGEND, CRITERION_NAMES
 
     lines = []
     table = entries(rows)

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
+from diffbench.bench.core.scores import estimate_on
 from diffbench.methods import Method
 
 
@@ -72,7 +73,6 @@ def decompose_error(method: Method, realisation, order: int) -> ErrorParts:
     on the realisation's interior (where the method is valid)."""
     if not method.linear:
         raise ValueError(f"`method` {method.name!r} is not linear: its error does not split")
-    from diffbench.bench.core.scores import estimate_on
 
     noisy = estimate_on(method, realisation, orders=(order,))
     clean = estimate_on(method, realisation, realisation.truth[0], orders=(order,))

@@ -21,8 +21,13 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from diffbench import methods, signals
+from diffbench.bench.core import tuning
+from diffbench.bench.core.plan import TuningJob
 from diffbench.bench.core.roles import ORDER_SYMBOLS
+from diffbench.bench.report import figures, tables
 from diffbench.signals.noise import Gaussian
+from diffbench.signals.scenarios import limit_scenario_names
 from diffbench.signals.stochastic import (
     BandLimited,
     GaussMarkov,
@@ -166,8 +171,6 @@ def efficiency_table(cells: pd.DataFrame) -> pd.DataFrame:
     ``efficiency_unpaired`` = bound / :math:`\bar m`. Only tasks on scenarios with a bound."""
     from scipy import stats
 
-    from diffbench import signals
-
     rows = cells[
         (cells["region"] == "interior")
         & cells["metric"].isin(["rmse", "optimal_rmse"])
@@ -219,7 +222,6 @@ def efficiency_table(cells: pd.DataFrame) -> pd.DataFrame:
 
 
 def _is_causal(name: str) -> bool:
-    from diffbench import methods
 
     return name in methods.available(causal=None) and methods.method_class(name).causal
 
@@ -241,7 +243,6 @@ EFFICIENCY_LEGEND = (
 def _efficiency_columns(table: pd.DataFrame) -> dict[str, list[str]]:
     """The people's columns of an efficiency table: efficiency ± its interval, the method's
     RMSE and the least RMSE."""
-    from diffbench.bench.report import tables
 
     return {
         "efficiency": [
@@ -256,7 +257,6 @@ def _efficiency_columns(table: pd.DataFrame) -> dict[str, list[str]]:
 def write_efficiency_report(cells: pd.DataFrame, directory) -> list:
     """``efficiency.md``/``.csv``: :func:`efficiency_table` of the cells, one row per entry and
     order, best first within each order."""
-    from diffbench.bench.report import tables
 
     table = efficiency_table(cells)
     if table.empty:
@@ -292,7 +292,6 @@ BUDGET = 150  # evaluations per tuning, as the grid's
 
 def task_names() -> list[str]:
     """The limit scenarios (:func:`diffbench.signals.scenarios.limit_scenario_names`)."""
-    from diffbench.signals.scenarios import limit_scenario_names
 
     return limit_scenario_names()
 
@@ -306,8 +305,6 @@ the data alone (:func:`diffbench.bench.core.tuning.tune`'s surrogate criterion, 
 def tuning_jobs(names, orders=(1, 2), tasks=None, criteria=CRITERIA) -> list:
     """Each method of ``names`` tuned by each of ``criteria`` for each order the task's signal
     has (``tasks``: default every limit scenario) on seed :data:`TUNING_SEED`."""
-    from diffbench import signals
-    from diffbench.bench.core.plan import TuningJob
 
     return [
         TuningJob(task, name, criterion, int(order), TUNING_SEED, None, BUDGET)
@@ -323,7 +320,6 @@ def study_table(cells: pd.DataFrame) -> pd.DataFrame:
     """:func:`efficiency_table` of the entries tuned for the order they are scored on, with
     the causal methods against the causal bound, and each task's ``family`` and
     ``noise_std``."""
-    from diffbench import signals
 
     tuned = cells[cells["origin"] == "tuned"]
     tuned = tuned[tuned["tuned_order"].astype(float) == tuned["order"].astype(float)]
@@ -346,8 +342,6 @@ def write_study(cells: pd.DataFrame, directory) -> list:
     ``efficiency.png`` (efficiency of the oracle-tuned methods against noise level, one line
     per method, a panel per signal family and order)."""
     from pathlib import Path
-
-    from diffbench.bench.report import figures, tables
 
     directory = Path(directory)
     table = study_table(cells)
@@ -528,8 +522,6 @@ def pareto_front(name: str, realisation, max_evaluations: int = 150, seed: int =
     """The :class:`Front` of method ``name`` for ẋ on ``realisation`` (its interior): every
     setting the oracle tuning tries (a spread over the method's tuning ranges, densest near
     the optimum), scored without the truth (fit, roughness) and with it (RMSE)."""
-    from diffbench import methods
-    from diffbench.bench.core import tuning
 
     result = tuning.tune(name, realisation, 1, "oracle", max_evaluations=max_evaluations, seed=seed)
     x, dt = np.asarray(realisation.x, dtype=float), realisation.dt_s
@@ -564,8 +556,6 @@ def write_pareto(fronts: list[Front], task: str, directory) -> list:
     setting is on the front) and ``pareto_<task>.png`` (per method: every setting's fit
     against roughness, the front, the knee and the oracle's setting)."""
     from pathlib import Path
-
-    from diffbench.bench.report import figures, tables
 
     directory = Path(directory)
     rows = [

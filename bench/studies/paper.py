@@ -21,8 +21,9 @@ import pandas as pd
 
 from diffbench import methods, signals
 from diffbench.bench.core import executor
-from diffbench.bench.report import figures
+from diffbench.bench.report import figures, tables
 from diffbench.bench.studies.frequency import cutoff_hz, ideal_response, noise_gain
+from diffbench.signals import robot2r
 
 DT = 1e-3
 SCENARIO = "paper-signal"
@@ -375,7 +376,6 @@ def write_figure3(directory: Path) -> list[Path]:
 def write_frequency_table(directory: Path, names=None) -> list[Path]:
     """``frequency.md`` / ``.csv``: cutoff, white-noise gain and gain at 15 Hz per linear
     method at its paper-signal preset (the Markdown from what the CSV holds)."""
-    from diffbench.bench.report import tables
 
     csv = tables.write_csv(directory / "frequency.csv", frequency_table(names=names))
     stored = pd.read_csv(csv)
@@ -408,7 +408,6 @@ def figure5_data(scenario_name: str = "robot-sim", seed: int = 0) -> pd.DataFram
     (the samples the identification uses) and, per method, ``qd1_<method>_error`` and
     ``qdd1_<method>_error`` (NaN where the method has no estimate).
     """
-    from diffbench.signals import robot2r
 
     scenario = robot2r.get_robot_scenario(scenario_name)
     realisation = scenario.realise(seed)
@@ -546,7 +545,6 @@ def write_error_profile(
     """``error_vs_position.csv`` (:func:`error_profile_data`), ``error_vs_position.png`` drawn
     from it (RMS error of ẋ and ẍ against position, log scale, one line per method) and
     ``ends.md``/``.csv`` (:func:`ends_table`)."""
-    from diffbench.bench.report import tables
 
     csv = directory / "error_vs_position.csv"
     error_profile_data(seeds, names, jobs, progress).to_csv(csv, index=False)

@@ -1,8 +1,8 @@
 r"""Which differentiator for this record, with which settings, and how wrong: from the data.
 
 :func:`recommend` reads the record's noise floor and signal band from its periodogram
-(:mod:`~diffbench.bench.studies.spectrum`; nothing typed in), draws surrogate records with the
-same spectrum whose truth is known (:mod:`~diffbench.bench.studies.surrogates`), tunes every
+(:mod:`~diffbench.bench.core.spectrum`; nothing typed in), draws surrogate records with the
+same spectrum whose truth is known (:mod:`~diffbench.bench.core.surrogates`), tunes every
 method on some of them with the oracle criterion, scores the tuned setting on the others, and
 ranks the methods by that predicted RMSE (mean ± standard deviation over the scoring
 surrogates). Linear or not, native or a peer's: every method is tuned and scored the same way.
@@ -32,12 +32,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from diffbench import methods
+from diffbench import methods, signals
 from diffbench.bench.core.scores import error_metrics
+from diffbench.bench.core.spectrum import RecordSpectrum, record_spectrum
+from diffbench.bench.core.surrogates import default_scored, surrogate_records
 from diffbench.bench.core.tuning import tune
 from diffbench.bench.report import figures
-from diffbench.bench.studies.spectrum import RecordSpectrum, record_spectrum
-from diffbench.bench.studies.surrogates import default_scored, surrogate_records
+from diffbench.bench.report.tables import markdown_table
 
 TUNING_SURROGATES = 2
 """Surrogates a method is tuned on (their mean loss: one draw can favour a setting by luck)."""
@@ -235,7 +236,6 @@ def write_recommendation(record, results, out: Path) -> list[Path]:
     the samples and the smoothed signal, ẋ, and the periodogram with the noise floor and band)
     in ``out``. What reading the record warned about (``record.notes``) heads ``ranking.md``.
     """
-    from diffbench.bench.report.tables import markdown_table
 
     out.mkdir(parents=True, exist_ok=True)
     frames, header = [], [f"# Recommendation for {record.source}", ""]
@@ -380,7 +380,6 @@ def validate(scenario: str, names=VALIDATION_METHODS, seed: int = 0, max_evaluat
     no_truth_loss`, with its weight γ from a bandlimit guess: the band ``recommend`` read off
     the periodogram) tunes each of ``names`` and picks the one of lowest loss: its true RMSE
     (``pynumdiff_*`` columns). Both ratios to the best known: :func:`with_best_known`."""
-    from diffbench import signals
 
     realisation = signals.get_scenario(scenario).realise(seed)
     if not getattr(realisation, "uniform", True):
@@ -480,7 +479,6 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
     """``validation.csv`` (every row) and ``validation.md`` (per order: median and worst ratio
     of the recommendation and of PyNumDiff's data-only tuning, then every scenario) in
     ``out``."""
-    from diffbench.bench.report.tables import markdown_table
 
     out.mkdir(parents=True, exist_ok=True)
     rows = [with_best_known(row) for row in rows]

@@ -11,7 +11,17 @@ import pandas as pd
 from diffbench.bench.core.roles import ORDER_SYMBOLS
 from diffbench.bench.core.stats import ranking
 from diffbench.bench.report import tables
-from diffbench.bench.studies import loop, online
+from diffbench.bench.report.figures import write_error_figure, write_online_figure
+from diffbench.bench.studies import loop, online, paper
+from diffbench.bench.studies.online import pareto_front
+from diffbench.bench.studies.robot import (
+    NESTED_VARIANT,
+    lab_reference,
+    parameter_names,
+    setting_of,
+    well_excited,
+)
+from diffbench.signals import robot2r
 
 INTERIOR_NOTE = (
     "- **interior**: the task's common interior, the same samples for every method; **whole**: "
@@ -38,7 +48,6 @@ def signal_report(
 ) -> list[Path]:
     """``rmse``, ``ranking``, ``decomposition`` (linear methods), ``tuning`` (if tuned) tables
     and the error figure of a signal task."""
-    from diffbench.bench.report.figures import write_error_figure
 
     wide = tables.wide_table(cells, tables.RMSE_COLUMNS)
     title = f"`{task}`: RMSE per method and setting (mean ± 95 % CI over {_seeds_phrase(cells)})"
@@ -349,9 +358,6 @@ def identification_shown(table: pd.DataFrame, reference: str | None) -> pd.DataF
 
 def robot_sim_report(scenario, cells: pd.DataFrame, directory: Path) -> list[Path]:
     """``table2`` (the paper's table II layout with the truth), ``summary`` and fig. 5."""
-    from diffbench.bench.studies import paper
-    from diffbench.bench.studies.robot import well_excited
-    from diffbench.signals import robot2r
 
     table = identification_table(cells, robot2r.PARAMETER_NAMES, scenario.true_parameters)
     written = tables.write_report(
@@ -388,12 +394,6 @@ def dfki_report(cells: pd.DataFrame, directory: Path, spec) -> list[Path]:
     """``summary`` (held-out measured torque, raw and filtered, beside the lab's model, ranked by
     joint 1), ``settings`` (what nested cross-validation chose on each fold) and ``table2``
     (parameters beside the lab's)."""
-    from diffbench.bench.studies.robot import (
-        NESTED_VARIANT,
-        lab_reference,
-        parameter_names,
-        setting_of,
-    )
 
     folds = len(spec.records)
     wide = tables.wide_table(cells, DFKI_SUMMARY)
@@ -499,7 +499,6 @@ ONLINE_LEGEND = (
 def online_table(cells: pd.DataFrame) -> pd.DataFrame:
     """One row per entry and derivative order (1, 2): the means over seeds of the online
     scores, and ``front`` (on its method's Pareto front of |delay| and compensated RMSE)."""
-    from diffbench.bench.studies.online import pareto_front
 
     summary = tables.summarise(cells)
     labelled = tables.label_entries(tables.entries(cells))
@@ -547,7 +546,6 @@ def _online_shown(table: pd.DataFrame) -> pd.DataFrame:
 def online_report(task: str, description: str, cells: pd.DataFrame, directory: Path) -> list[Path]:
     """``sweep`` (every setting), ``front`` (each method's Pareto front), ``best`` (each
     method's least RMSE at the time) and the error-against-delay figure of an online task."""
-    from diffbench.bench.report.figures import write_online_figure
 
     table = online_table(cells)
     seeds = _seeds_phrase(cells)

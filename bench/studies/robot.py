@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from diffbench import methods
+from diffbench.bench.core import tuning
 from diffbench.bench.studies.identification import (
     Identification,
     decimation_factor,
@@ -21,7 +23,7 @@ from diffbench.bench.studies.identification import (
     parallel_decimation,
 )
 from diffbench.methods import Method
-from diffbench.signals import robot2r
+from diffbench.signals import dfki, robot2r
 from diffbench.signals.dfki import DFKI_RUNS, PACKAGED_DESIGN, PendulumModel, packaged_model
 
 EDGE_SAMPLES = 4  # decimated samples dropped at each end (start-up of the decimation filter)
@@ -229,8 +231,6 @@ class DfkiCrossValidation:
         """A path or mapping given as ``model`` is read once
         (:func:`diffbench.signals.dfki.load_pendulum_model`)."""
         if not isinstance(self.model, PendulumModel):
-            from diffbench.signals import dfki
-
             object.__setattr__(self, "model", dfki.load_pendulum_model(self.model))
 
 
@@ -283,14 +283,12 @@ class _RunEquations:
 
 @functools.lru_cache(maxsize=16)
 def dfki_record(source):
-    from diffbench.signals import dfki
 
     return dfki.read_dfki_record(source)
 
 
 def _torque_model(record, estimate, where: np.ndarray, spec: DfkiCrossValidation):
     """W, measured y and the lab's torque on the samples ``where``."""
-    from diffbench.signals import dfki
 
     q, qd, qdd = (estimate[order][where] for order in (0, 1, 2))
     w = dfki.pendulum_regressor(q, qd, qdd)
@@ -334,7 +332,6 @@ def _run_equations(method: Method, index: int, spec: DfkiCrossValidation) -> _Ru
 
 def parameter_names(spec: DfkiCrossValidation) -> tuple[str, ...]:
     """The base parameters identified: nine with A4 tied to A6, else ten."""
-    from diffbench.signals import dfki
 
     return dfki.TIED_PARAMETER_NAMES if spec.tie_a4 else dfki.PENDULUM_PARAMETER_NAMES
 
@@ -342,7 +339,6 @@ def parameter_names(spec: DfkiCrossValidation) -> tuple[str, ...]:
 def lab_reference(spec: DfkiCrossValidation) -> np.ndarray:
     """The base parameters of the records' robot model (``spec.model``), in the order of
     :func:`parameter_names` (A4 left out when tied): the "lab" column of the parameter table."""
-    from diffbench.signals import dfki
 
     full = dict(zip(dfki.PENDULUM_PARAMETER_NAMES, spec.model.base_parameters(), strict=True))
     return np.array([full[name] for name in parameter_names(spec)])
@@ -375,8 +371,6 @@ def model_error_ratio(record, model: PendulumModel, spec: DfkiCrossValidation) -
     2.5-6.9; the packaged model on a simulated design-A.0 robot with 0.02 N·m torque noise,
     about 33.
     """
-    from diffbench import methods
-    from diffbench.signals import dfki
 
     method = methods.preset("savitzky_golay", "robot")
     t = record.t
@@ -402,7 +396,6 @@ def model_error_ratio(record, model: PendulumModel, spec: DfkiCrossValidation) -
 
 def _design_of(source) -> str | None:
     """The lab design a record is of: C.0 for a packaged run, else what its path names."""
-    from diffbench.signals import dfki
 
     if isinstance(source, numbers.Integral) and not isinstance(source, (bool, np.bool_)):
         return PACKAGED_DESIGN
@@ -501,9 +494,6 @@ def candidate_settings(method: Method, spec: DfkiCrossValidation) -> list[Method
     refuses are left out. The same list for every fold."""
     from scipy.stats import qmc
 
-    from diffbench import methods
-    from diffbench.bench.core import tuning
-
     record = dfki_record(spec.records[0])
     dimensions = tuning.search_space(method.name, spec.nominal_dt_s, record.t.size)
     settings = [method]
@@ -555,7 +545,6 @@ def choose_setting(method: Method, spec: DfkiCrossValidation, held_out: int):
 def _setting_rows(method: Method) -> list[dict[str, Any]]:
     """The chosen setting as rows ``setting.<name>``: numbers as they are, a choice that is
     not a number as its index in the parameter's choices."""
-    from diffbench import methods
 
     rows: list[dict[str, Any]] = []
     for spec in methods.params_of(type(method)):
@@ -568,7 +557,6 @@ def _setting_rows(method: Method) -> list[dict[str, Any]]:
 
 def setting_of(name: str, values: dict[str, float]) -> dict[str, Any]:
     """The parameters back from :func:`_setting_rows`' values (``setting.<name>`` stripped)."""
-    from diffbench import methods
 
     params = {}
     for spec in methods.params_of(methods.method_class(name)):

@@ -12,9 +12,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from diffbench import methods
+from diffbench import methods, signals
+from diffbench.bench.core import tuning
 from diffbench.bench.core.plan import preset_entry
 from diffbench.bench.report import figures
+from diffbench.methods.kalman import initial_state
+from diffbench.signals.clean import Truth
 
 DT = 1e-3
 
@@ -284,7 +287,6 @@ def kalman_against_filterpy(
     samples, on a shorter record: 80,000 samples, long enough for the smoother's block path,
     :data:`~diffbench.methods.kalman.BLOCKED_FROM`, which it takes on the long record), and
     the largest difference of their smoothed positions on the samples the method keeps."""
-    from diffbench.methods.kalman import initial_state
 
     kalman = methods.preset("kalman", "paper-signal")
     x = noisy_sine(samples, 0.05)
@@ -381,9 +383,6 @@ def _paper_signal_head(samples: int, margin: int):
     (PyNumDiff's ``padding``)."""
     from dataclasses import replace
 
-    from diffbench import signals
-    from diffbench.signals.clean import Truth
-
     whole = signals.get_scenario("paper-signal").realise(0)
     head = slice(0, samples)
     interior = np.zeros(samples, dtype=bool)
@@ -418,8 +417,6 @@ def tuning_against_pynumdiff(
     Needs PyNumDiff (the ``peers`` extra)."""
     import pynumdiff
     from pynumdiff.optimize import optimize
-
-    from diffbench.bench.core import tuning
 
     record = _paper_signal_head(samples, margin)
     x, truth = np.asarray(record.x), np.asarray(record.truth[1])

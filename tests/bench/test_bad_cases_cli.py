@@ -15,7 +15,7 @@ import pandas as pd
 import pytest
 
 from diffbench.bench.core import tuning
-from diffbench.bench.store import Store
+from diffbench.bench.core.store import Store
 from diffbench.bench.tasks import get_task
 
 PLUGIN = textwrap.dedent(

@@ -10,7 +10,7 @@ import pytest
 from diffbench.bench import runner
 from diffbench.bench.cli import main
 from diffbench.bench.core import tuning
-from diffbench.bench.store import Store
+from diffbench.bench.core.store import Store
 
 ROOT = Path(__file__).resolve().parents[2]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}

@@ -13,7 +13,7 @@ from diffbench.bench import runner
 from diffbench.bench.cli import main
 from diffbench.bench.core import executor
 from diffbench.bench.core.executor import DaskWorkers
-from diffbench.bench.store import Store
+from diffbench.bench.core.store import Store
 
 distributed = pytest.importorskip("dask.distributed")
 

@@ -6,16 +6,16 @@ import pytest
 
 from diffbench import methods, signals
 from diffbench.bench.core.scores import error_metrics
-from diffbench.bench.core.tuning import tune
-from diffbench.bench.studies.recommend import recommend
-from diffbench.bench.studies.spectrum import periodogram, record_spectrum
-from diffbench.bench.studies.surrogates import (
+from diffbench.bench.core.spectrum import periodogram, record_spectrum
+from diffbench.bench.core.surrogates import (
     continuum_spectrum,
     default_scored,
     fit_lines,
     spectral_lines,
     surrogate_records,
 )
+from diffbench.bench.core.tuning import tune
+from diffbench.bench.studies.recommend import recommend
 
 
 @pytest.fixture(scope="module")

@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 from diffbench.bench import runner
-from diffbench.bench import store as store_module
+from diffbench.bench.core import store as store_module
 from diffbench.bench.core.roles import Role
+from diffbench.bench.core.store import Store
 from diffbench.bench.report import tables
-from diffbench.bench.store import Store
 from diffbench.bench.tasks import available_tasks, get_task
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from diffbench import signals
-from diffbench.bench.studies.spectrum import periodogram, record_spectrum
+from diffbench.bench.core.spectrum import periodogram, record_spectrum
 
 
 def test_white_noise_has_its_variance_in_every_bin_and_no_band():

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from diffbench.bench.core.roles import Role
-from diffbench.bench.store import Store
+from diffbench.bench.core.store import Store
 
 ROOT = Path(__file__).resolve().parents[2]
 ROLE = Role.of_preset("paper-signal", "paper").as_dict()
@@ -147,7 +147,7 @@ WRITER = textwrap.dedent(
     """
     import sys, time
     from diffbench.bench.core.roles import Role
-    from diffbench.bench.store import Store
+    from diffbench.bench.core.store import Store
 
     store = Store(sys.argv[1])
     role = Role.of_preset("p", "paper").as_dict()
@@ -190,7 +190,7 @@ def one_dict() -> dict:
 
 
 def test_a_one_seed_tuning_keeps_the_keys_stored_before_the_seed_count_existed(tmp_path):
-    from diffbench.bench.store import cell_key, tuning_key
+    from diffbench.bench.core.store import cell_key, tuning_key
 
     fields = {
         "task": "t",
@@ -248,7 +248,7 @@ def test_a_one_seed_tuning_keeps_the_keys_stored_before_the_seed_count_existed(t
 
 
 def test_a_record_with_a_bad_seed_count_is_set_aside(tmp_path):
-    from diffbench.bench.store import tuning_key
+    from diffbench.bench.core.store import tuning_key
 
     store = Store(tmp_path / "store")
     fields = {

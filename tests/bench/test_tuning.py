@@ -174,7 +174,7 @@ def test_tune_cli_tunes_on_one_seed_and_scores_on_others(tmp_path, capsys):
         "--no-progress",
     ]
     assert main(args) == 0
-    from diffbench.bench.store import Store
+    from diffbench.bench.core.store import Store
 
     rows = Store(tmp_path / "store").cells_frame("paper-signal")
     assert set(rows["seed"]) == {0, 1, 2}  # the tuning seed 10000 is never scored
@@ -212,7 +212,7 @@ def test_realisations_tuned_together_must_agree():
 
 
 def test_tune_cli_on_k_seeds_stores_the_count_and_labels_the_rows(tmp_path, capsys):
-    from diffbench.bench.store import Store
+    from diffbench.bench.core.store import Store
 
     args = [
         "tune",
@@ -364,7 +364,7 @@ def test_whole_record_tuning_refuses_masked_ends_and_the_no_truth_criterion(tmp_
     assert main([*args, "--criteria", "oracle,no-truth"]) == 2
     assert "--region whole cannot go with the no-truth criterion" in capsys.readouterr().err
     assert main(args) == 0
-    from diffbench.bench.store import Store
+    from diffbench.bench.core.store import Store
 
     store = Store(tmp_path / "store")
     (tuned,) = store.tunings.records.values()

@@ -4,8 +4,8 @@ import json
 
 import pytest
 
-from diffbench.bench import uptodate
 from diffbench.bench.cli import main
+from diffbench.bench.core import uptodate
 
 
 def _writer(directory, calls):

@@ -1,7 +1,7 @@
 r"""Surrogate records: records like the user's, whose truth is known.
 
 A record alone cannot score a differentiator (its truth is unknown), but its spectrum says
-what kind of signal and noise it holds (:mod:`diffbench.bench.studies.spectrum`). A *surrogate* is a
+what kind of signal and noise it holds (:mod:`diffbench.bench.core.spectrum`). A *surrogate* is a
 record drawn from that description: the record's own sinusoids, a continuum with the rest of
 its signal spectrum and random phases, and fresh noise with its noise spectrum,
 
@@ -41,7 +41,7 @@ from scipy import optimize, stats
 from scipy import signal as sps
 
 from diffbench import signals
-from diffbench.bench.studies.spectrum import (
+from diffbench.bench.core.spectrum import (
     DYNAMIC_RANGE,
     FALSE_ALARM,
     RecordSpectrum,

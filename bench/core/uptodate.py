@@ -22,7 +22,7 @@ import os
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-from diffbench.bench.core.provenance import provenance
+from diffbench.bench.core.provenance import SOURCE_ROOT, provenance
 
 KEY_FILE = ".diffbench-report.json"
 """The file, in a report's directory, holding the key and the files of its last writing
@@ -35,7 +35,7 @@ _PACKAGE_DIRECTORIES = ("methods", "signals", "bench")
 def _source_digest() -> str:
     """SHA-256 over every file of diffbench's packages (relative path and bytes, sorted by
     path; compiled caches left out)."""
-    root = Path(__file__).resolve().parent.parent
+    root = SOURCE_ROOT
     digest = hashlib.sha256()
     for directory in _PACKAGE_DIRECTORIES:
         for path in sorted((root / directory).rglob("*")):
