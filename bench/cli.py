@@ -35,7 +35,6 @@ EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 EXIT_BROKEN_PIPE = 141
 EXIT_TERMINATED = 143
-CRITERIA = ("oracle", "no-truth", "pynumdiff")
 
 
 class UsageError(Exception):
@@ -133,10 +132,10 @@ def _orders(text: str) -> list[int]:
 
 def _criteria(text: str) -> list[str]:
     criteria = _name_list(text)
-    unknown = [c for c in criteria if c not in CRITERIA]
+    unknown = [c for c in criteria if c not in tuning.COMMAND_CRITERIA]
     if unknown:
         raise argparse.ArgumentTypeError(
-            f"must be among {', '.join(CRITERIA)}, got {', '.join(unknown)}"
+            f"must be among {', '.join(tuning.COMMAND_CRITERIA)}, got {', '.join(unknown)}"
         )
     return criteria
 
@@ -258,8 +257,8 @@ def build_parser() -> argparse.ArgumentParser:
     tune.add_argument(
         "--tuning-seed",
         type=_seed,
-        default=10_000,
-        help="noise seed tuned on (default 10000; never scored)",
+        default=tuning.TUNING_SEED,
+        help=f"noise seed tuned on (default {tuning.TUNING_SEED}; never scored)",
     )
     tune.add_argument(
         "--tuning-seeds",
@@ -759,7 +758,7 @@ def _cmd_tune(args) -> None:
             "--region whole cannot go with the no-truth criterion (a spectral estimate that "
             "knows no ends): use --criteria oracle or pynumdiff"
         )
-    data_only = [c for c in args.criteria if c in ("no-truth", "pynumdiff")]  # need f_c
+    data_only = [c for c in args.criteria if c in tuning.DATA_ONLY_CRITERIA]  # need f_c
     if data_only:
         _check_cutoff(args.cutoff_hz, task, data_only, args.region)
     jobs_list = []
@@ -857,7 +856,7 @@ def _cmd_pareto(args) -> None:
 
     task = _task(args.task)
     with user_input():
-        realisation = task.tuning_data(limit.TUNING_SEED)
+        realisation = task.tuning_data(tuning.TUNING_SEED)
     names = _method_names(args.methods) or methods.available()
     directory = args.out / "limit"
 

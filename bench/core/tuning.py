@@ -38,11 +38,20 @@ import numpy as np
 from scipy import integrate, optimize
 
 from diffbench import methods
+from diffbench.bench.core.roles import CRITERION_NAMES
 from diffbench.bench.core.scores import estimate_on, is_uniform
 from diffbench.bench.core.spectrum import periodogram, record_spectrum
 from diffbench.bench.core.surrogates import surrogate_records
 
-CRITERIA = ("oracle", "no-truth", "pynumdiff", "surrogate")
+CRITERIA = tuple(CRITERION_NAMES)
+"""Every tuning criterion (named, labelled and explained in :mod:`~diffbench.bench.core.roles`)."""
+DATA_ONLY_CRITERIA = ("no-truth", "pynumdiff")
+"""The criteria that need a bandlimit guess ``cutoff_hz`` (they see no truth)."""
+COMMAND_CRITERIA = tuple(c for c in CRITERIA if c != "surrogate")
+"""The criteria ``diffbench tune`` offers (``surrogate`` is the procedure of ``recommend`` and
+of the limit study)."""
+TUNING_SEED = 10_000
+"""The noise seed tuned on by default, never scored (the scored seeds are 0, 1, ...)."""
 
 SURROGATE_RECORDS = 2
 """Surrogate records drawn from each record tuned on by the surrogate criterion (their mean
@@ -332,7 +341,7 @@ def tune(
         )
     if order not in (1, 2):
         raise ValueError(f"`order` must be 1 or 2, got {order!r}")
-    if criterion in ("no-truth", "pynumdiff"):
+    if criterion in DATA_ONLY_CRITERIA:
         check_cutoff(cutoff_hz, realisations[0], criterion, region)
     if criterion != "oracle" and not all(is_uniform(r) for r in realisations):
         raise ValueError(

@@ -15,6 +15,7 @@ from pathlib import Path
 import pandas as pd
 
 from diffbench import methods, signals
+from diffbench.bench.core import tuning
 from diffbench.bench.core.plan import Cell, TuningJob, tuned_entries
 from diffbench.bench.core.roles import ORDER_SYMBOLS
 from diffbench.bench.core.stats import ranking
@@ -32,7 +33,6 @@ from diffbench.signals.scenarios import (
     vanishing_disturbances,
 )
 
-TUNING_SEED = 10_000
 BUDGET = 150  # evaluations per tuning: the grid tunes 36 x 7 x 2 times
 
 
@@ -68,10 +68,10 @@ def tuning_jobs(
     orders: Sequence[int] = (1, 2), names: Sequence[str] | None = None
 ) -> list[TuningJob]:
     """Each method of ``names`` (default: every registered offline one), for each order, on
-    each grid task (oracle, seed 10000); causal methods only on the uniformly sampled
-    tasks."""
+    each grid task (oracle, seed :data:`~diffbench.bench.core.tuning.TUNING_SEED`); causal
+    methods only on the uniformly sampled tasks."""
     return [
-        TuningJob(task, name, "oracle", int(order), TUNING_SEED, None, BUDGET)
+        TuningJob(task, name, "oracle", int(order), tuning.TUNING_SEED, None, BUDGET)
         for task in task_names()
         for name in (names or methods.available())
         for order in orders
@@ -257,7 +257,7 @@ def write_causal_price(rows: pd.DataFrame, directory: Path) -> list[Path]:
         pd.DataFrame(shown),
         "What estimating online costs: per grid task, the best causal method's interior RMSE "
         "against the best offline method's (each tuned by the oracle on seed "
-        f"{TUNING_SEED}, scored on the others)",
+        f"{tuning.TUNING_SEED}, scored on the others)",
         "Each cell: the best causal method and its RMSE, then its ratio to the best offline "
         "method (named last). Causal methods use the samples up to t only; the uniformly "
         "sampled tasks only (they take no irregular time stamps).",
@@ -287,7 +287,7 @@ def write_winners(rows: pd.DataFrame, directory: Path) -> list[Path]:
         title = (
             f"Winner per grid task for {ORDER_SYMBOLS[order]} (RMSE on the interior and on the "
             f"whole record; each method tuned by the oracle on the interior on seed "
-            f"{TUNING_SEED}, scored on the others)"
+            f"{tuning.TUNING_SEED}, scored on the others)"
         )
         legend = (
             "`*`: better than the runner-up by the paired t-test (p < 0.05; the CSV gives p and "

@@ -286,7 +286,6 @@ def write_efficiency_report(cells: pd.DataFrame, directory) -> list:
 
 
 # --- the study: every method oracle-tuned on every limit scenario ----------------------------
-TUNING_SEED = 10_000
 BUDGET = 150  # evaluations per tuning, as the grid's
 
 
@@ -304,10 +303,10 @@ the data alone (:func:`diffbench.bench.core.tuning.tune`'s surrogate criterion, 
 
 def tuning_jobs(names, orders=(1, 2), tasks=None, criteria=CRITERIA) -> list:
     """Each method of ``names`` tuned by each of ``criteria`` for each order the task's signal
-    has (``tasks``: default every limit scenario) on seed :data:`TUNING_SEED`."""
+    has (``tasks``: default every limit scenario) on seed :data:`tuning.TUNING_SEED`."""
 
     return [
-        TuningJob(task, name, criterion, int(order), TUNING_SEED, None, BUDGET)
+        TuningJob(task, name, criterion, int(order), tuning.TUNING_SEED, None, BUDGET)
         for task in (tasks or task_names())
         for criterion in criteria
         for name in names
@@ -371,9 +370,9 @@ def write_study(cells: pd.DataFrame, directory) -> list:
     )
     legend = (
         "Each method tuned for the derivative it is scored on (seed "
-        f"{TUNING_SEED}, {BUDGET} evaluations) by the oracle (against the truth) and from the "
-        "data alone (surrogate: the truth of surrogate records drawn from the record's own "
-        "spectrum, as `diffbench recommend` does), scored on new realisations (seeds 0..S-1) "
+        f"{tuning.TUNING_SEED}, {BUDGET} evaluations) by the oracle (against the truth) and "
+        "from the data alone (surrogate: the truth of surrogate records drawn from the record's "
+        "own spectrum, as `diffbench recommend` does), scored on new realisations (seeds 0..S-1) "
         "of the signal and the noise, on the middle second of each 3 s record. "
         f"{EFFICIENCY_LEGEND}"
     )
@@ -591,7 +590,7 @@ def write_pareto(fronts: list[Front], task: str, directory) -> list:
     )
     legend = (
         "Each method's settings as its oracle tuning for ẋ tries them (seed "
-        f"{TUNING_SEED}), scored without the truth by how well the integral of their ẋ fits "
+        f"{tuning.TUNING_SEED}), scored without the truth by how well the integral of their ẋ fits "
         "the data (re-integration RMSE) and how rough their ẋ is (total variation), as "
         "PyNumDiff's taxonomy (van Breugel, Kutz & Brunton 2020) proposes for data without "
         "priors. The front: the settings no other beats on both; the knee: the front's point "

@@ -7,6 +7,7 @@ import pandas as pd
 import pytest
 
 from diffbench import signals
+from diffbench.bench.core import tuning
 from diffbench.bench.studies import grid
 from diffbench.signals.scenarios import GRID_NOISE_LEVELS, GRID_NOISE_TYPES, GRID_STEPS_S
 
@@ -34,7 +35,7 @@ def test_tuning_job_returns_full_valid_parameters_on_a_coarse_step():
     from diffbench.bench.runner import TuningJob, _tune
 
     job = TuningJob(
-        "grid-gaussian-0.2-10ms", "jacobi", "oracle", 2, grid.TUNING_SEED, None, grid.BUDGET
+        "grid-gaussian-0.2-10ms", "jacobi", "oracle", 2, tuning.TUNING_SEED, None, grid.BUDGET
     )
     params = _tune(job)["params"]
     assert params
