@@ -467,7 +467,8 @@ def save_figure(fig, path: Path, *, tight: bool = True) -> Path:
 
 def write_online_figure(table: pd.DataFrame, path: Path, title: str) -> Path:
     """Delay-compensated RMSE against delay, one panel per derivative order: every setting of
-    each causal method (faint) and its front (joined), from :func:`reports.online_table`."""
+    each causal method (faint) and its front (joined), from the online task's table
+    (:func:`diffbench.bench.tasks.online.online_table`)."""
     plt = pyplot()
     orders = list(dict.fromkeys(table["order"]))
     fig, axes = plt.subplots(1, len(orders), figsize=(6.0 * len(orders), 4.6), squeeze=False)

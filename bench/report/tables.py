@@ -287,3 +287,11 @@ def legend(rows: pd.DataFrame, extra: str = "") -> str:
 
 def nan_to_dash(value: float, digits: int = 4) -> str:
     return "—" if value is None or not math.isfinite(value) else f"{value:.{digits}g}"
+
+
+def seeds_phrase(rows: pd.DataFrame) -> str:
+    """How many noise seeds the entries of ``rows`` were scored on, for a report's text
+    ("20 noise seeds", or "5–20 noise seeds" when entries differ)."""
+    counts = rows.groupby(ENTRY_KEYS)["seed"].nunique()
+    low, high = int(counts.min()), int(counts.max())
+    return f"{low} noise seeds" if low == high else f"{low}–{high} noise seeds"

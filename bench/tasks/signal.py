@@ -4,13 +4,20 @@ study's records, the Jacobi parameter study)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import ClassVar
+
+import numpy as np
+import pandas as pd
 
 from diffbench import methods, signals
 from diffbench.bench.core.plan import Entry
-from diffbench.bench.core.roles import Role
+from diffbench.bench.core.roles import ORDER_SYMBOLS, Role
 from diffbench.bench.core.scores import estimate_on, score_estimate
-from diffbench.bench.studies import limit, reports
+from diffbench.bench.core.stats import ranking
+from diffbench.bench.report import tables
+from diffbench.bench.report.figures import write_error_figure
+from diffbench.bench.studies import limit
 from diffbench.bench.studies.frequency import decompose_error
 from diffbench.bench.tasks.base import ScenarioTask
 
@@ -52,7 +59,7 @@ class SignalTask(ScenarioTask):
         return super().refusal(method)
 
     def report(self, cells, tunings, directory):
-        return reports.signal_report(self.name, self.description, cells, tunings, directory)
+        return signal_report(self.name, self.description, cells, tunings, directory)
 
 
 @dataclass(frozen=True, eq=False)
@@ -120,4 +127,251 @@ class JacobiInfluenceTask(SignalTask):
         ]
 
     def report(self, cells, tunings, directory):
-        return reports.influence_report(cells, directory)
+        return influence_report(cells, directory)
+
+
+# --- the report ------------------------------------------------------------------------------
+
+
+INTERIOR_NOTE = (
+    "- **interior**: the task's common interior, the same samples for every method; **whole**: "
+    "every sample of the record the method estimates (its own valid samples; the coverage "
+    "columns give the fraction of the record they are). Cells: mean ± 95 % confidence "
+    "half-width over the noise seeds (std in the CSV)."
+)
+
+
+REGION_HEADINGS = {"interior": "interior", "valid": "whole record"}
+
+
+WHOLE_RANK_NOTE = (
+    "On the **whole record** an entry is ranked by its RMSE over every sample it estimates, "
+    f"and only if these cover at least {tables.WHOLE_COVERAGE:.0%} of the record on every seed "
+    "(an entry that leaves out its ends would otherwise rank on its middle)."
+)
+
+
+def signal_report(
+    task: str, description: str, cells: pd.DataFrame, tunings: pd.DataFrame, directory: Path
+) -> list[Path]:
+    """``rmse``, ``ranking``, ``decomposition`` (linear methods), ``tuning`` (if tuned) tables
+    and the error figure of a signal task."""
+
+    wide = tables.wide_table(cells, tables.RMSE_COLUMNS)
+    title = (
+        f"`{task}`: RMSE per method and setting (mean ± 95 % CI over {tables.seeds_phrase(cells)})"
+    )
+    written = tables.write_report(
+        directory,
+        "rmse",
+        wide,
+        tables.display_frame(wide, tables.RMSE_COLUMNS),
+        title,
+        f"{description}\n\n{tables.legend(cells, INTERIOR_NOTE)}",
+    )
+    written.append(write_error_figure(wide, directory / "errors.png", title))
+    written += ranking_report(cells, directory)
+    if cells["metric"].isin(["bias_rmse", "noise_rmse"]).any():
+        linear = cells[
+            cells.groupby(tables.ENTRY_KEYS)["metric"].transform(
+                lambda m: m.isin(["bias_rmse"]).any()
+            )
+        ]
+        parts = tables.wide_table(linear, tables.DECOMPOSITION_COLUMNS)
+        written += tables.write_report(
+            directory,
+            "decomposition",
+            parts,
+            tables.display_frame(parts, tables.DECOMPOSITION_COLUMNS),
+            f"`{task}`: error decomposition of the linear methods (interior RMS)",
+            "For a linear method D, D(x + e) − x⁽ⁿ⁾ = [D(x) − x⁽ⁿ⁾] + D(e): **bias** = the "
+            "method on the clean signal minus the truth, **noise** = the method on the noise "
+            "alone; total² = bias² + noise² + 2·cross term.",
+        )
+    mine = tunings[tunings["task"] == task] if len(tunings) else tunings
+    if len(mine):
+        written += tuning_report(cells, mine, directory)
+    return written
+
+
+def ranking_report(cells: pd.DataFrame, directory: Path) -> list[Path]:
+    """``ranking.md``/``.csv``: entries ranked by RMSE of ẋ and of ẍ, on the interior and on
+    the whole record (entries covering at least :data:`tables.WHOLE_COVERAGE` of it), each
+    compared with the next by a paired t-test over the common seeds, with the smallest
+    difference that test detects 80 % of the time."""
+    frames, parts = [], []
+    for order in (1, 2):
+        for region in ("interior", "valid"):
+            rows = cells if region == "interior" else tables.covering_whole(cells, order)
+            chosen = rows[
+                (rows["metric"] == "rmse") & (rows["order"] == order) & (rows["region"] == region)
+            ]
+            if chosen.empty:
+                continue
+            table = ranking(chosen, "rmse", order, region, keys=tuple(tables.ENTRY_KEYS))
+            table = table.merge(tables.entries(chosen), on=tables.ENTRY_KEYS, how="left")
+            labelled = tables.label_entries(table).sort_values("mean", kind="stable")
+            labelled.insert(0, "derivative", ORDER_SYMBOLS[order])
+            labelled.insert(1, "region", REGION_HEADINGS[region])
+            frames.append(labelled)
+            parts.append(
+                f"## {ORDER_SYMBOLS[order]}, {REGION_HEADINGS[region]}\n\n"
+                f"{tables.markdown_table(_ranking_shown(labelled))}\n"
+            )
+    text = (
+        "# Rankings by RMSE on the interior and on the whole record\n\n"
+        + "\n".join(parts)
+        + "\n**better than next?**: the two-sided paired t-test over the common seeds of the "
+        "difference with the next row (p < 0.05: yes). **detectable (80 %)**: the smallest true "
+        "difference in mean RMSE that this test would find 80 % of the time with these seeds; a "
+        "'no' next to a difference smaller than it says the run is too small to tell, not that "
+        f"the methods are equal. {WHOLE_RANK_NOTE}\n"
+    )
+    return [
+        tables.write_text(directory / "ranking.md", text),
+        tables.write_csv(directory / "ranking.csv", pd.concat(frames)),
+    ]
+
+
+def _ranking_shown(labelled: pd.DataFrame) -> pd.DataFrame:
+    return pd.DataFrame(
+        {
+            "rank": range(1, len(labelled) + 1),
+            "method": labelled["method"],
+            "package": labelled["package"],
+            "ẍ": [tables.xddot_source(m) for m in labelled["method"]],
+            "setting": labelled["setting"],
+            "parameters": labelled["parameters"],
+            "RMSE": [
+                tables.plus_minus(m, h)
+                for m, h in zip(labelled["mean"], labelled["ci95"], strict=True)
+            ],
+            "better than next?": [_verdict(row) for _, row in labelled.iterrows()],
+            "detectable (80 %)": [
+                tables.nan_to_dash(v, 2) for v in labelled["detectable_difference_80"]
+            ],
+        }
+    )
+
+
+def _verdict(row) -> str:
+    if pd.isna(row["significant_vs_next"]):
+        return "—"
+    word = "yes" if row["significant_vs_next"] else "no"
+    return f"{word} (p = {row['vs_next_t_p']:.2g})" if np.isfinite(row["vs_next_t_p"]) else word
+
+
+# The tunings a tuning table compares: (column, criterion, seeds the loss averages, region it
+# is taken on).
+TUNING_VARIANTS = (
+    ("oracle", "oracle", 1, "interior"),
+    ("oracle 10 seeds", "oracle", 10, "interior"),
+    ("oracle 10 seeds whole", "oracle", 10, "whole"),
+    ("no-truth", "no-truth", 1, "interior"),
+    ("pynumdiff", "pynumdiff", 1, "interior"),
+)
+
+
+def tuning_table(cells: pd.DataFrame, tunings: pd.DataFrame) -> pd.DataFrame:
+    """Per method, derivative n and scoring region (interior, whole record), the mean RMSE on
+    the scoring seeds of the preset and of each tuned setting of :data:`TUNING_VARIANTS`, the
+    seconds each tuning took, the no-truth / oracle ratio, and (whole record) the least
+    coverage of the record among these settings."""
+    chosen = cells[cells["metric"].isin(["rmse", "coverage"])]
+    group_keys = [
+        "method",
+        "origin",
+        "criterion",
+        "tuned_order",
+        "tuning_seeds",
+        "tuned_region",
+        "order",
+        "region",
+        "metric",
+    ]
+    means = chosen.groupby(group_keys, dropna=False)["value"].mean()
+    least = chosen.groupby(group_keys, dropna=False)["value"].min()
+    records = []
+    for (method, order), group in tunings.groupby(["method", "order"], sort=True):
+        order = int(order)
+        for region in ("interior", "valid"):
+            record = {
+                "method": method,
+                "n": ORDER_SYMBOLS[order],
+                "scored on": REGION_HEADINGS[region],
+            }
+            presets = chosen[
+                (chosen["method"] == method)
+                & (chosen["origin"] == "preset")
+                & (chosen["order"] == order)
+                & (chosen["region"] == region)
+            ]
+            rmse = presets[presets["metric"] == "rmse"]["value"]
+            record["preset"] = rmse.mean() if len(rmse) else float("nan")
+            coverages = list(presets[presets["metric"] == "coverage"]["value"])
+            for column, criterion, seeds, tuned_region in TUNING_VARIANTS:
+                hit = group[
+                    (group["criterion"] == criterion)
+                    & (group["tuning_seeds"] == seeds)
+                    & (group["region"] == tuned_region)
+                ]
+                key = (method, "tuned", criterion, order, seeds, tuned_region, order, region)
+                record[column] = (
+                    means.get((*key, "rmse"), float("nan")) if len(hit) else float("nan")
+                )
+                record[f"{column} s"] = float(hit["seconds"].iloc[0]) if len(hit) else float("nan")
+                if len(hit):
+                    coverages.append(least.get((*key, "coverage"), float("nan")))
+            oracle = record["oracle"]
+            record["no-truth / oracle"] = (
+                record["no-truth"] / oracle if oracle > 0 else float("nan")
+            )
+            known = [c for c in coverages if np.isfinite(c)]
+            record["least coverage"] = min(known) if region == "valid" and known else float("nan")
+            records.append(record)
+    return pd.DataFrame(records)
+
+
+def tuning_report(cells: pd.DataFrame, tunings: pd.DataFrame, directory: Path) -> list[Path]:
+    """``tuning.md``/``.csv``: :func:`tuning_table`, the columns no tuning filled left out; the
+    seconds each tuning took in the ``.csv`` only (they change from run to run and machine to
+    machine, so the tracked ``.md`` stays the same when a rerun reproduces the numbers)."""
+    frame = tuning_table(cells, tunings)
+    frame = frame[
+        [c for c in frame.columns if c in ("method", "n", "scored on") or frame[c].notna().any()]
+    ]
+    shown = frame[[c for c in frame.columns if not c.endswith(" s")]].copy()
+    for column in shown.columns[3:]:
+        shown[column] = [tables.nan_to_dash(v, 4) for v in frame[column]]
+    return tables.write_report(
+        directory,
+        "tuning",
+        frame,
+        shown,
+        "Tuning: RMSE on the scoring seeds, on the interior and on the whole record, of the "
+        "preset and of each tuned setting",
+        "Each tuned setting is tuned for the derivative n on its tuning seeds (never scored): "
+        "**oracle**, **no-truth**, **pynumdiff**: one seed, loss on the interior; **oracle 10 "
+        "seeds**: the loss averaged over ten seeds; **whole**: the loss taken on every sample. "
+        "no-truth / oracle near 1 means the data-only criterion finds what the truth would; "
+        "tuning.csv also gives the seconds each tuning took. **whole record**: RMSE over each "
+        "setting's own valid samples; **least coverage**: the smallest fraction of the record "
+        "they cover among the row's settings (under 1: some ends are masked).",
+    )
+
+
+def influence_report(cells: pd.DataFrame, directory: Path) -> list[Path]:
+    """Table I of the paper measured: bias and noise parts of the Jacobi error per variant."""
+    wide = tables.wide_table(cells, tables.DECOMPOSITION_COLUMNS)
+    shown = tables.display_frame(wide, tables.DECOMPOSITION_COLUMNS)
+    return tables.write_report(
+        directory,
+        "table1",
+        wide,
+        shown,
+        "Table I of the paper, measured: bias and noise parts of the Jacobi error on "
+        f"`paper-signal` (interior RMS, mean ± 95 % CI over {tables.seeds_phrase(cells)})",
+        "Base preset κ = μ = 12, q = 6, T = 0.21 s (trapezoid rule, paper sec. III.C); each "
+        "variant changes one design parameter. The paper's table I predicts: κ = μ or q up → "
+        "noise up, bias down; T up → noise down, bias up.",
+    )

@@ -380,7 +380,7 @@ def test_tuning_table_keeps_each_tuning_apart_on_the_interior_and_the_whole_reco
     averaged together), each scored on the interior and on the whole record."""
     import pandas as pd
 
-    from diffbench.bench.studies.reports import tuning_table
+    from diffbench.bench.tasks.signal import tuning_table
 
     def cells(origin, criterion, seeds, region_tuned, interior, whole, coverage):
         rows = []
