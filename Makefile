@@ -74,10 +74,10 @@ studies: $(STAMP)
 	$(BIN)/diffbench run identify-dfki --methods native,$(GRID_PEERS) --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench run online-paper-signal --seeds 5 --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench run online-2r-loop --seeds 3 --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench grid --methods native,$(GRID_PEERS),causal --seeds 10 --jobs 2 \
+	$(BIN)/diffbench run grid --methods native,$(GRID_PEERS),causal --seeds 10 --jobs 2 \
 	  --out $(STUDIES)
 	$(BIN)/diffbench recommend-check --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench limit --methods native,$(GRID_PEERS),causal --seeds 20 --jobs 2 \
+	$(BIN)/diffbench run limit --methods native,$(GRID_PEERS),causal --seeds 20 --jobs 2 \
 	  --out $(STUDIES)
 	for task in limit-matern52-0.01 limit-matern72-0.01 limit-iwn2-0.01 limit-iwn3-0.01 \
 	  limit-band20-0.01; do \

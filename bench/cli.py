@@ -26,8 +26,8 @@ from diffbench.bench.core import executor, tuning, uptodate
 from diffbench.bench.core.executor import Terminated, terminate_on_sigterm
 from diffbench.bench.core.provenance import provenance
 from diffbench.bench.core.store import Store, StoreError, set_command
-from diffbench.bench.studies import grid, limit, paper, recommend, timing, user_data
-from diffbench.bench.tasks import available_tasks, dfki_task, get_task
+from diffbench.bench.studies import limit, paper, recommend, timing, user_data
+from diffbench.bench.tasks import LimitStudy, available_tasks, dfki_task, get_task
 from diffbench.signals.dfki import load_pendulum_model
 
 EXIT_INTERNAL = 1
@@ -223,6 +223,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="run every method at its preset on a task, write its report",
     )
     run.add_argument("task", help="task name (see `diffbench list`)")
+    run.add_argument(
+        "--orders",
+        type=_orders,
+        default=[1, 2],
+        help="derivatives a study (grid, limit) tunes for (default 1,2)",
+    )
     run.add_argument(*RECORDS_FLAG, **RECORDS_OPTIONS)
     run.add_argument(*ROBOT_MODEL_FLAG, **ROBOT_MODEL_OPTIONS)
     run.set_defaults(handler=_cmd_run)
@@ -606,8 +612,8 @@ def _say(summary: runner.RunSummary) -> None:
 
 def _report(task, store: Store, out: Path) -> list[Path]:
     store.refresh()
-    cells = store.cells_frame(task.name)
-    failed = store.failed_cells(task.name)
+    cells = store.cells_frame(task.parts())
+    failed = store.failed_cells(task.parts())
     if cells.empty and not failed.empty:
         raise UsageError(
             f"every cell of {task.name} asked for failed ({len(failed)}: "
@@ -703,13 +709,20 @@ def _task_of(args):
 
 
 def _cmd_run(args) -> None:
-    task = _task_of(args)
+    _run_task(_task_of(args), args)
+
+
+def _run_task(task, args) -> None:
+    """Any task, a study too: its tunings (stored, reused), then its cells, then its report."""
     names = _method_names(args.methods)
     with user_input():
         seeds = task.seeds(args.seeds)
-        entries = task.lineup(names)
+        jobs_list = task.tuning_jobs(names, args.orders)
+        cells = None if jobs_list else task.plan({}, names, seeds)
     store = _open_store(args.out)
-    cells = [cell for entry in entries for cell in entry.cells(task.name, seeds)]
+    if jobs_list:
+        found, _ = _tune(jobs_list, store, args)
+        cells = task.plan(found, names, seeds)
     _say(_run_cells(cells, store, args))
     for path in _report(task, store, args.out):
         print(path)
@@ -816,40 +829,15 @@ def _tune(jobs_list, store: Store, args):
 
 
 def _cmd_grid(args) -> None:
-
-    store = _open_store(args.out)
-    found, _ = _tune(grid.tuning_jobs(args.orders, _method_names(args.methods)), store, args)
-    cells = grid.cells(found, range(args.seeds))
-    _say(_run_cells(cells, store, args))
-    store.refresh()
-    key = uptodate.inputs_key({"report": "grid"}, [store.cells.path])
-    directory = args.out / "grid"
-    for path in uptodate.report_once(
-        directory, key, lambda: grid.write_winners(store.cells_frame(grid.task_names()), directory)
-    ):
-        print(path)
+    """``diffbench grid``: ``diffbench run grid`` (the study task)."""
+    _run_task(_task("grid"), args)
 
 
 def _cmd_limit(args) -> None:
-
-    tasks = args.scenarios or limit.task_names()
-    unknown = sorted(set(tasks) - set(limit.task_names()))
-    if unknown:
-        raise UsageError(
-            f"--scenarios: not limit scenarios: {', '.join(unknown)}; "
-            f"choose among {', '.join(limit.task_names())}"
-        )
-    names = _method_names(args.methods) or methods.available()
-    store = _open_store(args.out)
-    found, _ = _tune(limit.tuning_jobs(names, args.orders, tasks), store, args)
-    _say(_run_cells(grid.cells(found, range(args.seeds)), store, args))
-    store.refresh()
-    key = uptodate.inputs_key({"report": "limit", "tasks": tasks}, [store.cells.path])
-    directory = args.out / "limit"
-    for path in uptodate.report_once(
-        directory, key, lambda: limit.write_study(store.cells_frame(tasks), directory)
-    ):
-        print(path)
+    """``diffbench limit``: ``diffbench run limit``, on ``--scenarios`` if given."""
+    with user_input():  # its message names `scenarios`
+        study = LimitStudy(tuple(args.scenarios or ()))
+    _run_task(study, args)
 
 
 def _cmd_pareto(args) -> None:

@@ -25,6 +25,7 @@ from diffbench.bench.tasks.base import _TASKS, ScenarioTask, Task, register_task
 from diffbench.bench.tasks.online import LoopTask, OnlineTask, sweep_lineup
 from diffbench.bench.tasks.robot import DfkiTask, RobotSimTask
 from diffbench.bench.tasks.signal import JacobiInfluenceTask, LimitTask, SignalTask
+from diffbench.bench.tasks.study import GridStudy, LimitStudy, Study
 from diffbench.signals import robot2r
 from diffbench.signals.dfki import load_pendulum_model
 from diffbench.signals.scenarios import grid_scenario_names
@@ -68,6 +69,8 @@ def _register_builtins() -> None:
     for name in robot2r.available_robot_scenarios():
         register_task(RobotSimTask(robot2r.get_robot_scenario(name)))
     register_task(DfkiTask())
+    register_task(GridStudy())
+    register_task(LimitStudy())
 
 
 def available_tasks(listed_only: bool = False) -> list[str]:
@@ -91,13 +94,16 @@ def get_task(name: str) -> Task:
 
 __all__ = [
     "DfkiTask",
+    "GridStudy",
     "JacobiInfluenceTask",
+    "LimitStudy",
     "LimitTask",
     "LoopTask",
     "OnlineTask",
     "RobotSimTask",
     "ScenarioTask",
     "SignalTask",
+    "Study",
     "Task",
     "available_tasks",
     "dfki_task",

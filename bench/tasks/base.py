@@ -10,7 +10,7 @@ from typing import ClassVar
 import pandas as pd
 
 from diffbench import methods
-from diffbench.bench.core.plan import Entry, preset_entry
+from diffbench.bench.core.plan import Cell, Entry, preset_entry
 from diffbench.bench.core.roles import Role
 
 _TASKS: dict[str, Task] = {}
@@ -40,6 +40,22 @@ class Task:
                 continue
             entries.append(entry)
         return entries
+
+    def parts(self) -> list[str]:
+        """The tasks whose cells this one's report reads: itself (a study: its parts)."""
+        return [self.name]
+
+    def tuning_jobs(self, method_names: Sequence[str] | None, orders: Sequence[int]) -> list:
+        """The tunings ``diffbench run`` does before it plans the cells (a study tunes every
+        method on each of its parts; a task at its presets tunes nothing)."""
+        return []
+
+    def plan(self, found: dict, method_names: Sequence[str] | None, seeds: range) -> list[Cell]:
+        """The cells ``diffbench run`` computes, given the tunings ``found`` of
+        :meth:`tuning_jobs`: the :meth:`lineup` over ``seeds``."""
+        return [
+            cell for entry in self.lineup(method_names) for cell in entry.cells(self.name, seeds)
+        ]
 
     @property
     def folder(self) -> str:
