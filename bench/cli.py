@@ -23,7 +23,7 @@ from pathlib import Path
 from diffbench import methods, signals
 from diffbench.bench import runner
 from diffbench.bench.core import executor, tuning, uptodate
-from diffbench.bench.core.executor import Terminated, terminate_on_sigterm
+from diffbench.bench.core.executor import Terminated, WorkerDied, terminate_on_sigterm
 from diffbench.bench.core.provenance import provenance
 from diffbench.bench.core.store import Store, StoreError, set_command
 from diffbench.bench.studies import limit, paper, recommend, timing, user_data
@@ -1032,13 +1032,23 @@ def _main(argv: list[str]) -> int:
     except Terminated:
         print("diffbench: terminated", file=sys.stderr)
         return EXIT_TERMINATED
-    except SystemExit as stop:
-        return int(stop.code or 0) if not isinstance(stop.code, str) else EXIT_USAGE
+    except WorkerDied as error:
+        print(f"diffbench: error: {error}", file=sys.stderr)
+        return EXIT_INTERNAL
+    except SystemExit as stop:  # argparse's --help and errors, a plugin's sys.exit at import
+        code = int(stop.code or 0) if not isinstance(stop.code, str) else EXIT_USAGE
+        return _flushed(code)
+    return _flushed(0)
+
+
+def _flushed(code: int) -> int:
+    """``code``, once the standard output is flushed; the flush's ``OSError`` (a full disk
+    under ``--help > /dev/full``) as one line and its exit code."""
     try:
         sys.stdout.flush()
     except OSError as error:
         return _os_error(error)
-    return 0
+    return code
 
 
 def _os_error(error: OSError) -> int:

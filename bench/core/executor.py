@@ -26,6 +26,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from typing import Any
 
@@ -214,6 +215,31 @@ def forks() -> bool:
     return "fork" in multiprocessing.get_all_start_methods()
 
 
+class WorkerDied(RuntimeError):
+    """A local worker process died while the work ran (killed, out of memory, or code that
+    ended the process: ``os._exit`` in a plugin); the results returned before it are kept by
+    the caller, the rest are not computed."""
+
+    def __init__(self, exit_code: int | None = None) -> None:
+        how = f" (exit code {exit_code})" if exit_code is not None else ""
+        super().__init__(
+            f"a worker process died{how}: killed, out of memory, or a method ended its process "
+            "(os._exit); finished results are stored: run the same command to resume, with "
+            "--jobs 1 to see which method"
+        )
+
+
+def _results(futures, pool: ProcessPoolExecutor) -> Iterator:
+    """Each future's result in the order given; a dead worker as :class:`WorkerDied`."""
+    for future in futures:
+        try:
+            yield future.result()
+        except BrokenProcessPool:
+            processes = (getattr(pool, "_processes", None) or {}).values()
+            codes = [process.exitcode for process in processes if process.exitcode]
+            raise WorkerDied(codes[0] if codes else None) from None
+
+
 def _context():
     return multiprocessing.get_context("fork" if forks() else "spawn")
 
@@ -233,8 +259,7 @@ def ordered_map(
     pool = _pool(jobs, len(items))
     try:
         futures = [pool.submit(function, item) for item in items]
-        for future in futures:
-            yield future.result()
+        yield from _results(futures, pool)
     finally:
         stop(pool)
 
@@ -255,7 +280,7 @@ def completed_map(
     try:
         futures = {pool.submit(function, item): item for item in items}
         for future in as_completed(futures):
-            yield futures[future], future.result()
+            yield futures[future], next(_results([future], pool))
     finally:
         stop(pool)
 

@@ -67,6 +67,14 @@ PLUGIN = textwrap.dedent(
             return {o: np.full(x.shape, np.inf) for o in orders}
 
 
+    @register("bad.dies")
+    class Dies(_Base):
+        def _values(self, x, orders):
+            import os
+
+            os._exit(7)
+
+
     @register("bad.hangs")
     class Hangs(_Base):
         def _values(self, x, orders):
@@ -330,12 +338,29 @@ def test_a_plugin_module_that_fails_to_import_is_one_line(code, message, tmp_pat
     assert result.stdout == ""
 
 
+def test_a_plugin_that_ends_its_worker_process_is_one_line_and_the_run_resumes(tmp_path, plugin):
+    """``os._exit`` in a plugin's method on 2 workers: the pool breaks; one line says so
+    (exit 1, no traceback), the cells finished before are kept, and the run without the plugin
+    completes from them."""
+    common = ["run", "paper-signal", "--seeds", "6", "--no-progress", "--out", tmp_path]
+    methods = ["--methods", "finite_difference,bad.dies"]
+    first = _diffbench(*common, "--plugin", "bad_methods", "--jobs", "2", *methods, env=plugin)
+    _one_error_line(first, "a worker process died", code=1)
+    assert "run the same command to resume" in first.stderr
+    again = _diffbench(*common, "--methods", "finite_difference")
+    assert again.returncode == 0, again.stderr
+    assert "6 cells computed" not in again.stdout  # some were stored by the first run
+    assert (tmp_path / "paper-signal" / "rmse.csv").exists()
+
+
 # 7 -----------------------------------------------------------------------------------------
 @pytest.mark.skipif(not Path("/dev/full").exists(), reason="no /dev/full on this system")
-def test_a_full_disk_on_the_output_is_one_line():
+@pytest.mark.parametrize("argv", [["list"], ["--help"], ["run", "--help"]])
+def test_a_full_disk_on_the_output_is_one_line(argv):
+    """``--help`` too: argparse prints it and exits, the output still has to reach the disk."""
     with open("/dev/full", "w") as full:
         result = subprocess.run(
-            [sys.executable, "-m", "diffbench.bench", "list"],
+            [sys.executable, "-m", "diffbench.bench", *argv],
             stdout=full,
             stderr=subprocess.PIPE,
             text=True,
