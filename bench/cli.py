@@ -989,6 +989,7 @@ class _NamedOutput:
 
     def __init__(self, stream) -> None:
         self._stream = stream
+        self.error: OSError | None = None
 
     def _named(self, call, *args):
         try:
@@ -998,7 +999,9 @@ class _NamedOutput:
         except OSError as error:
             if error.errno is None or error.filename is not None:
                 raise
-            raise type(error)(error.errno, error.strerror, STDOUT_NAME) from None
+            # kept: a caller may swallow it (argparse's help does), the exit code may not
+            self.error = type(error)(error.errno, error.strerror, STDOUT_NAME)
+            raise self.error from None
 
     def write(self, text: str) -> int:
         return self._named(self._stream.write, text)
@@ -1048,7 +1051,8 @@ def _flushed(code: int) -> int:
         sys.stdout.flush()
     except OSError as error:
         return _os_error(error)
-    return code
+    swallowed = getattr(sys.stdout, "error", None)  # a failed write someone caught
+    return _os_error(swallowed) if swallowed is not None else code
 
 
 def _os_error(error: OSError) -> int:
