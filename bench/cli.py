@@ -26,7 +26,7 @@ from diffbench.bench.core import executor, tuning, uptodate
 from diffbench.bench.core.executor import Terminated, WorkerDied, terminate_on_sigterm
 from diffbench.bench.core.provenance import provenance
 from diffbench.bench.core.store import Store, StoreError, set_command
-from diffbench.bench.studies import limit, paper, recommend, timing, user_data
+from diffbench.bench.studies import paper, pareto, recommend, timing, user_data
 from diffbench.bench.tasks import LimitStudy, available_tasks, dfki_task, get_task
 from diffbench.signals.dfki import load_pendulum_model
 
@@ -849,9 +849,9 @@ def _cmd_pareto(args) -> None:
     directory = args.out / "limit"
 
     def write() -> list[Path]:
-        work = functools.partial(limit.pareto_front, realisation=realisation)
+        work = functools.partial(pareto.pareto_front, realisation=realisation)
         fronts = list(executor.ordered_map(work, names, args.jobs))
-        return limit.write_pareto(fronts, task.name, directory)
+        return pareto.write_pareto(fronts, task.name, directory)
 
     key = uptodate.inputs_key({"report": "pareto", "task": task.name, "methods": names})
     for path in uptodate.report_once(directory, key, write, part=f"pareto-{task.name}"):

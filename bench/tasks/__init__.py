@@ -20,7 +20,7 @@ from __future__ import annotations
 import functools
 
 from diffbench import signals
-from diffbench.bench.studies.robot import check_model_matches, dfki_record
+from diffbench.bench.studies.dfki import check_model_matches, dfki_record
 from diffbench.bench.tasks.base import _TASKS, ScenarioTask, Task, register_task
 from diffbench.bench.tasks.online import LoopTask, OnlineTask, sweep_lineup
 from diffbench.bench.tasks.robot import DfkiTask, RobotSimTask
@@ -39,7 +39,7 @@ def dfki_task(records, robot_model=None) -> Task:
     else the lab's ``model_parameters.yml`` of their design (a path), a mapping of its
     parameters or a :class:`diffbench.signals.dfki.PendulumModel`
     (:func:`diffbench.signals.dfki.load_pendulum_model`). Records that evidently are not of
-    that robot are refused (:func:`diffbench.bench.studies.robot.check_model_matches`: a path naming
+    that robot are refused (:func:`diffbench.bench.studies.dfki.check_model_matches`: a path naming
     another design, or a torque the model explains worse than its mean).
     """
     records = tuple(records)

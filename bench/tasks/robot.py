@@ -16,17 +16,16 @@ from diffbench.bench.core.plan import Entry
 from diffbench.bench.core.roles import Role
 from diffbench.bench.report import tables
 from diffbench.bench.studies import paper
-from diffbench.bench.studies.robot import (
+from diffbench.bench.studies.dfki import (
     NESTED_VARIANT,
     DfkiCrossValidation,
     dfki_record,
     lab_reference,
     parameter_names,
     score_dfki_fold,
-    score_identification,
     setting_of,
-    well_excited,
 )
+from diffbench.bench.studies.robot import score_identification, well_excited
 from diffbench.bench.tasks.base import ScenarioTask, Task
 from diffbench.signals import robot2r
 from diffbench.signals.dfki import load_pendulum_model, packaged_model
@@ -58,7 +57,7 @@ class DfkiTask(Task):
     """Real recordings of the DFKI double pendulum: leave-one-run-out identification (a cell's
     seed is the held-out run), scored by the measured torque of the held-out run at its logged
     time stamps; each method at its preset and at the settings nested cross-validation
-    chooses (:class:`diffbench.bench.studies.robot.DfkiCrossValidation`). ``robot_model``: the
+    chooses (:class:`diffbench.bench.studies.dfki.DfkiCrossValidation`). ``robot_model``: the
     records' robot (:class:`diffbench.signals.dfki.PendulumModel`), None for the packaged
     design C.0 one."""
 
@@ -333,7 +332,7 @@ def dfki_report(cells: pd.DataFrame, directory: Path, spec) -> list[Path]:
             "DFKI double pendulum: the setting nested cross-validation chose for each held-out "
             "run (never seeing it), and its pooled raw-torque RMSE over the other runs",
             "Chosen among the method's preset and Sobol draws of its tuning ranges "
-            "(bench/studies/robot.py: candidate_settings).",
+            "(bench/studies/dfki.py: candidate_settings).",
         )
     identified = parameter_names(spec)
     table = identification_table(cells, identified, reference=("lab", lab_reference(spec)))

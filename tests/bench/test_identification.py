@@ -13,6 +13,7 @@ import pytest
 from diffbench import methods
 from diffbench.bench.cli import main
 from diffbench.bench.runner import compute_cell, preset_entry
+from diffbench.bench.studies import dfki as dfki_study
 from diffbench.bench.studies import robot
 from diffbench.bench.studies.identification import decimation_factor, idim_ls, parallel_decimation
 from diffbench.signals import robot2r
@@ -224,7 +225,7 @@ def test_dfki_fold_scores_the_measured_torque_at_the_logged_time_stamps():
     torque as logged; the stored score equals a direct recomputation from the estimate at the
     logged times, is about as good as the lab's published model, and the filtered score (both
     sides decimated) is smaller than the raw one."""
-    from diffbench.bench.studies.robot import DfkiCrossValidation, score_dfki_fold
+    from diffbench.bench.studies.dfki import DfkiCrossValidation, score_dfki_fold
 
     spec = DfkiCrossValidation()
     method = methods.preset("savitzky_golay", "robot")
@@ -248,7 +249,7 @@ def test_dfki_finite_differences_are_worst_on_raw_torque_not_on_filtered():
     """Raw torque separates the methods: finite differences pass the encoder's quantisation
     noise to q̈ (raw joint-1 error 12 N·m on run 2 against 0.12 for Butterworth); decimating
     both sides hides most of it (0.52 against 0.10)."""
-    from diffbench.bench.studies.robot import DfkiCrossValidation, score_dfki_fold
+    from diffbench.bench.studies.dfki import DfkiCrossValidation, score_dfki_fold
 
     spec = DfkiCrossValidation()
     scores = {}
@@ -261,7 +262,7 @@ def test_dfki_finite_differences_are_worst_on_raw_torque_not_on_filtered():
 
 
 def test_dfki_passive_joints_are_not_scored():
-    from diffbench.bench.studies.robot import DfkiCrossValidation, score_dfki_fold
+    from diffbench.bench.studies.dfki import DfkiCrossValidation, score_dfki_fold
 
     method = methods.get("finite_difference")
     metrics = {r["metric"] for r in score_dfki_fold(method, DfkiCrossValidation(), 3)}
@@ -287,7 +288,7 @@ def test_nested_settings_never_see_the_held_out_run(tmp_path):
     (checked by scoring every candidate)."""
     import gzip
 
-    from diffbench.bench.studies.robot import (
+    from diffbench.bench.studies.dfki import (
         DfkiCrossValidation,
         candidate_settings,
         choose_setting,
@@ -392,13 +393,13 @@ def test_dfki_records_of_design_a_are_identified_with_their_model(design_a):
     spec = dfki_task(records, robot_model=model_path).spec
     assert spec.model.design == "A.0" and spec.model.values["l1"] == 0.3
     method = methods.preset("savitzky_golay", "robot")
-    rows = {r["metric"]: r["value"] for r in robot.score_dfki_fold(method, spec, 0)}
+    rows = {r["metric"]: r["value"] for r in dfki_study.score_dfki_fold(method, spec, 0)}
     X = syn.true_base_parameters()
     truth = np.delete(X, dfki.PENDULUM_PARAMETER_NAMES.index("A4_m2_l1_r2"))
     estimate = np.array([rows[f"estimate.{name}"] for name in dfki.TIED_PARAMETER_NAMES])
     W, r_d, r_n = [], [], []
     for k in (1, 2):  # the training records of fold 0
-        record, exact = robot.dfki_record(records[k]), motions[k]
+        record, exact = dfki_study.dfki_record(records[k]), motions[k]
         np.testing.assert_array_equal(record.q, exact.q)  # 17 digits in the file: exact
         t = record.t
         inside = (t >= t[0] + spec.interior_margin_s) & (t <= t[-1] - spec.interior_margin_s)
@@ -432,7 +433,7 @@ def test_dfki_records_of_design_a_are_identified_with_their_model(design_a):
     relative = tolerance / np.abs(truth)
     assert np.all(relative[:5] < 0.01) and np.all(relative[5:] < 0.1), relative
     # the lab column: the model's torques (the robot's inverse dynamics), not the packaged ones
-    record = robot.dfki_record(records[0])
+    record = dfki_study.dfki_record(records[0])
     t = record.t
     inside = (t >= t[0] + spec.interior_margin_s) & (t <= t[-1] - spec.interior_margin_s)
     found = method(record.q, spec.nominal_dt_s, t=t)
@@ -453,11 +454,11 @@ def test_a_wrong_link_length_is_what_the_bound_catches(design_a):
 
     records, _, _ = design_a
     wrong = {**syn.DESIGN_A_PARAMETERS, "l1": 0.2}  # a mapping is read as a model
-    spec = robot.DfkiCrossValidation(records=tuple(records), model=wrong)
+    spec = dfki_study.DfkiCrossValidation(records=tuple(records), model=wrong)
     assert spec.model == dfki.load_pendulum_model(wrong) and spec.model.values["l1"] == 0.2
     rows = {
         r["metric"]: r["value"]
-        for r in robot.score_dfki_fold(methods.preset("savitzky_golay", "robot"), spec, 0)
+        for r in dfki_study.score_dfki_fold(methods.preset("savitzky_golay", "robot"), spec, 0)
     }
     X = syn.true_base_parameters()
     truth = np.delete(X, dfki.PENDULUM_PARAMETER_NAMES.index("A4_m2_l1_r2"))
@@ -536,13 +537,13 @@ def test_dfki_cache_identity_holds_the_model(tmp_path):
     other = DfkiTask(records=tuple(paths), robot_model={**dfki.lab_parameters(), "l1": 0.21})
     assert other.name.startswith("identify-dfki-") and other.name != old_name
     method = methods.preset("savitzky_golay", "robot")
-    given = robot.DfkiCrossValidation(model=dfki.load_pendulum_model(copy))
-    assert given == robot.DfkiCrossValidation() and given.model.source == str(copy)
+    given = dfki_study.DfkiCrossValidation(model=dfki.load_pendulum_model(copy))
+    assert given == dfki_study.DfkiCrossValidation() and given.model.source == str(copy)
     runs = (0, 2, 4)
-    default = robot.score_dfki_fold(method, robot.DfkiCrossValidation(records=runs), 1)
-    robot._run_equations.cache_clear()  # recompute with the given model, not from the cache
+    default = dfki_study.score_dfki_fold(method, dfki_study.DfkiCrossValidation(records=runs), 1)
+    dfki_study._run_equations.cache_clear()  # recompute with the given model, not from the cache
     given = dataclasses.replace(given, records=runs)
-    assert robot.score_dfki_fold(method, given, 1) == default
+    assert dfki_study.score_dfki_fold(method, given, 1) == default
 
 
 def test_cli_robot_model_option_and_refusal(tmp_path):

@@ -11,7 +11,7 @@ import pytest
 from diffbench import methods, signals
 from diffbench.bench import tasks
 from diffbench.bench.cli import main
-from diffbench.bench.studies import limit
+from diffbench.bench.studies import limit, pareto
 
 
 @pytest.mark.parametrize("name", ["limit-iwn3-0.001", "limit-iwn3-0.01", "limit-iwn3-0.1"])
@@ -165,7 +165,7 @@ def test_the_front_is_every_point_no_other_beats_on_both():
     rng = np.random.default_rng(0)
     fit, roughness = rng.random(200), rng.random(200)
     fit[5], roughness[5] = fit[6], roughness[6]  # a tie: the first of equals is kept
-    front = limit.non_dominated(fit, roughness)
+    front = pareto.non_dominated(fit, roughness)
     for i in range(200):
         beaten = np.any(
             (fit <= fit[i])
@@ -181,8 +181,8 @@ def test_the_knee_is_the_corner_of_an_l_shaped_front():
     fit = np.concatenate([np.geomspace(1e-3, 1e-2, 10), np.geomspace(1e-2, 1.0, 21)[1:]])
     roughness = np.concatenate([np.geomspace(1e5, 1e2, 10), np.geomspace(1e2, 10.0, 21)[1:]])
     order = np.random.default_rng(1).permutation(fit.size)  # any order
-    assert fit[order][limit.knee(fit[order], roughness[order])] == pytest.approx(1e-2)
-    assert limit.knee(np.array([1.0, 2.0]), np.array([2.0, 1.0])) == 0  # too few: an end
+    assert fit[order][pareto.knee(fit[order], roughness[order])] == pytest.approx(1e-2)
+    assert pareto.knee(np.array([1.0, 2.0]), np.array([2.0, 1.0])) == 0  # too few: an end
 
 
 def test_reintegration_and_total_variation_on_exact_values():
@@ -192,13 +192,13 @@ def test_reintegration_and_total_variation_on_exact_values():
     keep = np.zeros(t.size, dtype=bool)
     keep[100:900] = True
     exact = 2.0 - 10.0 * t  # linear: the trapezoidal integral is exact
-    assert limit.reintegration_rmse(x, exact, dt, keep) == pytest.approx(0.0, abs=1e-12)
+    assert pareto.reintegration_rmse(x, exact, dt, keep) == pytest.approx(0.0, abs=1e-12)
     # a derivative off by a constant c leaves a residual ramp c·t: RMSE c·T/√12 on T = 799 dt
-    assert limit.reintegration_rmse(x, exact + 0.5, dt, keep) == pytest.approx(
+    assert pareto.reintegration_rmse(x, exact + 0.5, dt, keep) == pytest.approx(
         0.5 * 799 * dt * math.sqrt((1 + 2 / 799) / 12), rel=1e-9
     )
-    assert limit.total_variation(exact, keep) == pytest.approx(10.0 * 799 * dt, rel=1e-12)
-    assert limit.total_variation(np.sign(np.sin(40 * t)), keep) == pytest.approx(
+    assert pareto.total_variation(exact, keep) == pytest.approx(10.0 * 799 * dt, rel=1e-12)
+    assert pareto.total_variation(np.sign(np.sin(40 * t)), keep) == pytest.approx(
         2.0 * np.count_nonzero(np.diff(np.sign(np.sin(40 * t[100:900]))))
     )
 
