@@ -25,7 +25,7 @@ from diffbench.bench import runner
 from diffbench.bench.core import executor, tuning, uptodate
 from diffbench.bench.core.executor import Terminated, WorkerDied, terminate_on_sigterm
 from diffbench.bench.core.provenance import provenance
-from diffbench.bench.core.store import Store, StoreError, set_command
+from diffbench.bench.core.store import Store, StoreError, set_command, store_exists
 from diffbench.bench.studies import paper, pareto, recommend, timing, user_data
 from diffbench.bench.tasks import LimitStudy, available_tasks, dfki_task, get_task
 from diffbench.signals.dfki import load_pendulum_model
@@ -624,9 +624,9 @@ def _report(task, store: Store, out: Path) -> list[Path]:
             f"no stored results of {task.name} in {store.directory}; run "
             f"`diffbench run {task.name} --out {out}` first"
         )
-    sources = [store.cells.path, store.tunings.path]
-    sources += [store.failures.path] if not failed.empty else []
-    key = uptodate.inputs_key({"report": task.name, "folder": task.folder}, sources)
+    tables = ("cells", "tunings", "failures") if not failed.empty else ("cells", "tunings")
+    options = {"report": task.name, "folder": task.folder}
+    key = uptodate.inputs_key(options, store.content_version(tables))
     directory = out / task.folder
 
     def write() -> list[Path]:
@@ -730,7 +730,7 @@ def _run_task(task, args) -> None:
 
 def _cmd_report(args) -> None:
     task = _task_of(args)
-    if not (args.out / "store" / "cells.jsonl").exists():
+    if not store_exists(args.out / "store"):
         raise UsageError(
             f"no results store in {args.out / 'store'}; run "
             f"`diffbench run {task.name} --out {args.out}` first"

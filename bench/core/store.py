@@ -1,53 +1,62 @@
-"""The results store: append-only JSON Lines files that keep every good record through anything.
+"""The results store: one SQLite database that keeps every stored record through anything.
 
-A store is a folder (``<out>/store/``) holding one file per kind of record: ``cells.jsonl`` (one
-line per finished cell: its key, the role of its parameters, its scores), ``tunings.jsonl``
-(one line per finished tuning) and, once a study outside the task model stores its rows there,
-``studies.jsonl`` (one line per study item: ``recommend-check``'s scenarios). Each file starts
-with a header line; each run that writes to it adds one ``run`` line first (git revision,
-package versions, command), and its records name that run, so provenance is stored once per
-run, not on every row.
+A store is a folder (``<out>/store/``) holding one database, :data:`STORE_FILE`, with one
+table per kind of record: ``cells`` (one row per finished cell: its key, the role of its
+parameters, its scores), ``tunings`` (one per finished tuning), ``studies`` (one per item a
+study outside the task model stored: ``recommend-check``'s scenarios) and ``failures`` (one
+per failed attempt at a cell). Each run that writes adds one row to ``runs`` (git revision,
+package versions, command) and its records name that run, so provenance is stored once per
+run, not on every row. ``meta`` holds the format, its version and the store's identity.
+Nested values (params, role, scores, a study's rows) are canonical JSON text (floats by
+``repr``, exact); numbers outside them are stored as they are (8-byte floats, exact; no column
+affinity, so ``-0.0`` keeps its sign). pandas reads any table with ``read_sql``;
+:meth:`Store.export` writes them as CSV or Parquet files.
 
 Guarantees
 ----------
-* **Atomic records.** A record is one line written by one ``os.write`` and then ``fsync``-ed
-  (a write the disk cuts short raises an ``OSError`` naming the file; its torn tail is set
-  aside like any other),
-  under an exclusive lock (``filelock``) shared by every process that writes to the file.
-* **No duplicates.** Under the lock the writer first reads what other writers appended, and a
-  record whose key is already stored is refused (``append`` returns False): two concurrent
-  runs on one store end with every cell exactly once.
-* **Never a lost good record.** Opening the file reads it line by line; a line that is not a
-  valid record of this store (garbage, binary bytes, a torn last line left by a killed writer,
-  a foreign header, a record whose key does not match its content) is *set aside*: appended to
-  ``<name>.quarantine.jsonl`` with its line number and the reason, then the file is rewritten
-  atomically (temporary file, ``fsync``, ``os.replace``) with every good line byte for byte.
-  Nothing else ever rewrites the file.
+* **Atomic, durable records.** Each record is one transaction (``BEGIN IMMEDIATE`` ...
+  ``COMMIT``) in WAL mode with ``synchronous=FULL``: once ``add_cell`` returns, the record is
+  on disk; a writer killed mid-transaction leaves nothing of it (SQLite's journal).
+* **No duplicates.** ``key`` is ``UNIQUE`` and records are written with ``INSERT OR IGNORE``:
+  a record whose key is stored is refused (``append`` returns False), so concurrent runs on
+  one store end with every cell exactly once.
+* **Never a lost or overwritten record.** A database file that SQLite cannot read (garbage,
+  truncated, another program's database, another format version) is refused with a
+  :class:`StoreError` naming the file and what to do; nothing is written to it.
 * **Resume.** Because finished records are durable and keyed, an interrupted or killed run
   loses no finished record, and the same command computes only what is missing.
+* **Migration.** A folder holding the JSON Lines files of earlier diffbench versions
+  (``cells.jsonl``, ``tunings.jsonl``, ``studies.jsonl``, ``failures.jsonl``) is imported on
+  opening: every valid record with its run (keys are unique, so an import twice stores each
+  once); lines that are not valid records are listed in :attr:`Store.set_aside` and copied to
+  ``<name>.quarantine.jsonl`` as before; each file is then renamed ``<name>.imported.jsonl``.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import errno
 import json
 import os
+import sqlite3
 import uuid
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
-from filelock import FileLock
 
 from diffbench.bench.core.provenance import provenance
 from diffbench.bench.core.roles import OPTIONAL_DEFAULTS, TUNED_REGIONS, Role
 
 FORMAT = "diffbench-store"
-VERSION = 1
+VERSION = 2
+"""The version of the store's format: 1 was the JSON Lines files, 2 this SQLite schema."""
+STORE_FILE = "diffbench.sqlite"
 LOCK_TIMEOUT_S = 600.0
+_SQLITE_HEADER = b"SQLite format 3\x00"
 
 
 def canonical(value: Any) -> str:
@@ -61,7 +70,7 @@ def utc_now() -> str:
 
 @dataclasses.dataclass(frozen=True)
 class SetAside:
-    """A line of a store file that is not a valid record, and why."""
+    """A line of an earlier version's store file that was not imported, and why."""
 
     path: Path
     line: int
@@ -71,18 +80,15 @@ class SetAside:
         return f"{self.path.name} line {self.line}: {self.reason}"
 
 
-class _BadRecord(ValueError):
-    pass
-
-
 class StoreError(ValueError):
-    """A store this code cannot use as it is (another format version, not a store at all):
-    the message says what was found and what to do. Nothing is changed on disk."""
+    """A store this code cannot use as it is (another format version, not a store at all, a
+    damaged database): the message says what was found and what to do. Nothing is changed on
+    disk."""
 
 
 @dataclasses.dataclass
 class _Run:
-    """The provenance of this process's run, written once to each file it appends to."""
+    """The provenance of this process's run, written once to each store it writes to."""
 
     run_id: str = dataclasses.field(default_factory=lambda: uuid.uuid4().hex[:16])
     command: str = ""
@@ -107,237 +113,121 @@ def set_command(argv: Iterable[str]) -> None:
     CURRENT_RUN.command = " ".join(["diffbench", *argv])
 
 
-class RecordFile:
-    """One append-only JSON Lines file of records of one ``kind``, unique by ``key``.
+def store_exists(directory: str | os.PathLike) -> bool:
+    """Whether ``directory`` holds a store (this version's database or an earlier version's
+    files, which opening imports)."""
+    directory = Path(directory)
+    return any((directory / name).exists() for name in (STORE_FILE, *_OLD_FILES.values()))
 
-    ``validate(record)`` raises ``ValueError`` for a record that is not acceptable (it is then
-    set aside like any bad line). ``set_aside`` lists what opening the file put in quarantine.
-    """
 
-    def __init__(self, path: Path, kind: str, validate: Callable[[dict], None]) -> None:
-        self.path = Path(path)
-        self.kind = kind
-        self._validate = validate
-        self.quarantine_path = self.path.with_name(self.path.stem + ".quarantine.jsonl")
-        self._lock = FileLock(str(self.path) + ".lock", timeout=LOCK_TIMEOUT_S)
-        self.records: dict[str, dict] = {}
-        self.runs: dict[str, dict] = {}
-        self.set_aside: list[SetAside] = []
-        self._offset = 0
-        self._identity: tuple[int, int] | None = None
-        self._run_written = False
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        with self._lock:
-            self._open()
+# --- tables --------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class _Schema:
+    """A table of records of one ``kind``: its columns (``json`` ones hold canonical JSON) and
+    the columns a record holds only when set (NULL when absent)."""
 
-    # --- reading -------------------------------------------------------------------------
-    def _header(self) -> bytes:
-        return (
-            canonical({"record": "header", "format": FORMAT, "kind": self.kind, "version": VERSION})
-            + "\n"
-        ).encode()
+    table: str
+    kind: str
+    columns: tuple[str, ...]
+    json: frozenset[str]
+    optional: frozenset[str] = frozenset()
 
-    def _classify(self, number: int, raw: bytes) -> tuple[str, dict | None, str]:
-        """('header' | 'run' | 'record' | 'blank' | 'bad', record, reason)."""
-        if not raw.strip():
-            return "blank", None, ""
-        try:
-            text = raw.decode("utf-8")
-        except UnicodeDecodeError:
-            return "bad", None, "not UTF-8 text (binary bytes)"
-        try:
-            record = json.loads(text)
-        except json.JSONDecodeError as error:
-            return "bad", None, f"not a JSON record ({error.msg} at column {error.colno})"
-        if not isinstance(record, dict):
-            return "bad", None, "not a JSON object"
-        kind = record.get("record")
-        if kind == "header":
-            if record.get("format") != FORMAT or record.get("kind") != self.kind:
-                return "bad", None, f"header of another file ({text.strip()[:80]})"
-            if record.get("version") != VERSION:
-                version = record.get("version")
-                newer = isinstance(version, int) and version > VERSION
-                raise StoreError(
-                    f"{self.path} was written by another diffbench store version: its header "
-                    f"says version {version!r}, this diffbench reads version {VERSION} only; "
-                    "read it with the diffbench that wrote it"
-                    f"{' (pip install -U diffbench)' if newer else ''}, or give another --out "
-                    "directory (or move this store away) to start a new one"
-                )
-            return "header", record, ""
-        if kind == "run":
-            if not isinstance(record.get("run"), str):
-                return "bad", None, "run record without a run id"
-            return "run", record, ""
-        if kind != self.kind:
-            return "bad", None, f"not a {self.kind} record (record={kind!r})"
-        try:
-            self._validate(record)
-        except (ValueError, TypeError, KeyError) as error:
-            return "bad", None, f"invalid {self.kind} record: {error}"
-        return "record", record, ""
+    def row(self, record: Mapping[str, Any]) -> list[Any]:
+        return [
+            None
+            if name not in record
+            else canonical(record[name])
+            if name in self.json
+            else record[name]
+            for name in self.columns
+        ]
 
-    def _stat_identity(self) -> tuple[int, int]:
-        status = os.stat(self.path)
-        return (status.st_dev, status.st_ino)
-
-    def _open(self) -> None:
-        """Read the whole file (under the lock); set aside bad lines and a torn tail."""
-        if not self.path.exists() or self.path.stat().st_size == 0:
-            self._replace(self._header())
-        data = self.path.read_bytes()
-        lines = data.split(b"\n")
-        tail = lines.pop()  # b"" when the file ends with a newline, else a torn last line
-        good: list[bytes] = []
-        bad: list[tuple[int, bytes, str]] = []
-        header_seen = False
-        for number, raw in enumerate(lines, start=1):
-            kind, record, reason = self._classify(number, raw)
-            if kind == "header":
-                if number == 1:
-                    header_seen = True
-                    good.append(raw)
-                else:
-                    bad.append((number, raw, "a second header line"))
-            elif kind == "bad":
-                if number == 1:
-                    reason = f"not this store's header line ({reason})"
-                bad.append((number, raw, reason))
-            elif kind == "blank":
+    def record(self, row: Iterable[Any]) -> dict[str, Any]:
+        record: dict[str, Any] = {"record": self.kind}
+        for name, value in zip(self.columns, row, strict=True):
+            if value is None and name in self.optional:
                 continue
-            else:
-                if record["record"] == "run":
-                    self.runs[record["run"]] = record
-                elif record["key"] in self.records:
-                    bad.append((number, raw, "duplicate of an earlier record (same key)"))
-                    continue
-                else:
-                    self.records[record["key"]] = record
-                good.append(raw)
-        if tail:
-            bad.append((len(lines) + 1, tail, "torn last line (a write cut short)"))
-        if bad and not header_seen and not self.records and not self.runs:
-            raise StoreError(
-                f"{self.path} is not a diffbench store and holds no diffbench record; "
-                "move it away or choose another --out directory"
-            )
-        if bad or not header_seen:
-            self._quarantine(bad)
-            body = b"".join(line + b"\n" for line in good)
-            if not header_seen:
-                body = self._header() + body
-            self._replace(body)
-        self._offset = self.path.stat().st_size
-        self._identity = self._stat_identity()
+            record[name] = json.loads(value) if name in self.json else value
+        return record
 
-    def _quarantine(self, bad: list[tuple[int, bytes, str]]) -> None:
-        if not bad:
-            return
-        entries = []
-        for number, raw, reason in bad:
-            self.set_aside.append(SetAside(self.path, number, reason))
-            entries.append(
-                canonical(
-                    {
-                        "file": self.path.name,
-                        "line": number,
-                        "reason": reason,
-                        "found_utc": utc_now(),
-                        "text": raw.decode("utf-8", errors="backslashreplace"),
-                    }
-                )
-                + "\n"
-            )
-        _append_whole(self.quarantine_path, "".join(entries).encode("utf-8"), create=True)
+    def create(self) -> str:
+        # no declared type but the key's: no affinity, each value kept as it was given
+        columns = _quoted(name for name in self.columns if name != "key")
+        return (
+            f"CREATE TABLE IF NOT EXISTS {self.table} (id INTEGER PRIMARY KEY, "
+            f"key TEXT NOT NULL UNIQUE, {columns}, run TEXT NOT NULL REFERENCES runs(run))"
+        )
 
-    def _replace(self, body: bytes) -> None:
-        temporary = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
-        try:
-            with open(temporary, "wb") as handle:
-                handle.write(body)
-                handle.flush()
-                os.fsync(handle.fileno())
-        except OSError as error:  # disk full, file size limit: the original stays as it was
-            temporary.unlink(missing_ok=True)
-            raise _naming(error, temporary) from None
-        os.replace(temporary, self.path)
+
+_RUNS = (
+    "CREATE TABLE IF NOT EXISTS runs (id INTEGER PRIMARY KEY, run TEXT NOT NULL UNIQUE, "
+    "started_utc TEXT, git_rev TEXT, versions TEXT, command TEXT)"
+)
+_RUN_COLUMNS = ("run", "started_utc", "git_rev", "versions", "command")
+
+
+def _quoted(names: Iterable[str]) -> str:
+    return ", ".join(f'"{name}"' for name in names)
+
+
+class RecordTable:
+    """The records of one table, unique by ``key``, as read so far (``records``: key to the
+    record as a dict, in the order they were stored; :meth:`refresh` reads what other writers
+    added since). ``validate(record)`` raises ``ValueError`` for a record not acceptable."""
+
+    def __init__(self, store: Store, schema: _Schema, validate: Callable[[dict], None]) -> None:
+        self._store = store
+        self.schema = schema
+        self.kind = schema.kind
+        self._validate = validate
+        self.records: dict[str, dict] = {}
+        self._last_id = 0
+        columns = _quoted((*schema.columns, "run"))
+        self._select = f"SELECT id, {columns} FROM {schema.table} WHERE id > ? ORDER BY id"
+        self._insert = (
+            f"INSERT OR IGNORE INTO {schema.table} ({columns}) "
+            f"VALUES ({', '.join('?' for _ in schema.columns)}, ?)"
+        )
+
+    @property
+    def path(self) -> Path:
+        """The database file."""
+        return self._store.path
+
+    @property
+    def runs(self) -> dict[str, dict]:
+        """Every run of the store (its provenance), by run id."""
+        return self._store.runs
+
+    set_aside: tuple[SetAside, ...] = ()
+    """Empty: a table holds only valid records (the lines an import left out are in
+    :attr:`Store.set_aside`)."""
 
     def refresh(self) -> None:
-        """Read what other writers appended since the last read (whole lines only)."""
-        if self._identity != self._stat_identity():  # rewritten by an opener: read it all
-            self.records.clear()
-            self.runs.clear()
-            self._offset = 0
-            self._identity = self._stat_identity()
-        with open(self.path, "rb") as handle:
-            handle.seek(self._offset)
-            data = handle.read()
-        end = data.rfind(b"\n") + 1
-        number = 0
-        for raw in data[:end].split(b"\n")[:-1]:
-            number += 1
-            kind, record, _ = self._classify(number, raw)
-            if kind == "run":
-                self.runs[record["run"]] = record
-            elif kind == "record":
-                self.records.setdefault(record["key"], record)
-        self._offset += end
+        """Read the records other writers stored since the last read."""
+        self._store._read_runs()
+        rows = self._store._connection().execute(self._select, (self._last_id,)).fetchall()
+        for row in rows:
+            record = self.schema.record(row[1:-1])
+            record["run"] = row[-1]
+            self.records.setdefault(record["key"], record)
+            self._last_id = row[0]
 
-    # --- writing -------------------------------------------------------------------------
     def append(self, record: Mapping[str, Any]) -> bool:
         """Store ``record`` (a dict with ``key``) unless its key is stored; True if written."""
         record = {"record": self.kind, **record, "run": CURRENT_RUN.run_id}
         self._validate(record)
-        with self._lock:
-            self.refresh()
-            if record["key"] in self.records:
-                return False
-            data = b""
-            with open(self.path, "rb") as handle:
-                handle.seek(0, os.SEEK_END)
-                if handle.tell() > 0:
-                    handle.seek(-1, os.SEEK_END)
-                    if handle.read(1) != b"\n":
-                        data += b"\n"  # a torn tail left by a killed writer stays its own line
-            if CURRENT_RUN.run_id not in self.runs:
-                run = CURRENT_RUN.record()
-                data += (canonical(run) + "\n").encode()
-                self.runs[run["run"]] = run
-            data += (canonical(record) + "\n").encode()
-            _append_whole(self.path, data)
-            self._offset = self.path.stat().st_size
-            self.records[record["key"]] = record
+        with self._store._transaction() as connection:
+            self._store._add_run(connection, CURRENT_RUN.record())
+            written = connection.execute(self._insert, [*self.schema.row(record), record["run"]])
+        if written.rowcount != 1:
+            self.refresh()  # the other writer's record
+            return False
+        self.records.setdefault(record["key"], record)
         return True
 
-
-def _naming(error: OSError, path: Path) -> OSError:
-    """``error`` with ``path`` as its file name (so it can be reported in one line)."""
-    if error.filename is not None or error.errno is None:
-        return error
-    return type(error)(error.errno, error.strerror, str(path))
-
-
-def _append_whole(path: Path, data: bytes, create: bool = False) -> None:
-    """Append ``data`` to ``path`` and ``fsync`` it; a write cut short (disk full, the file
-    size limit) is raised as an ``OSError`` naming the file and its cause. What it left is a
-    torn last line, which readers skip and the next opening sets aside (no good record is
-    touched). The caller holds the file's lock."""
-    flags = os.O_WRONLY | os.O_APPEND | (os.O_CREAT if create else 0)
-    try:
-        fd = os.open(path, flags, 0o644)
-        try:
-            view = memoryview(data)
-            while view:  # a short write is followed by one that fails with the cause
-                written = os.write(fd, view)
-                if written == 0:
-                    raise OSError(errno.EIO, "no bytes written", str(path))
-                view = view[written:]
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-    except OSError as error:
-        raise _naming(error, path) from None
+    def _import(self, connection: sqlite3.Connection, record: Mapping[str, Any]) -> None:
+        connection.execute(self._insert, [*self.schema.row(record), record["run"]])
 
 
 # --- cells ---------------------------------------------------------------------------------
@@ -492,6 +382,76 @@ def _check_failure(record: dict) -> None:
         raise ValueError("`key` does not match the record's cell and run")
 
 
+_SCHEMAS = {
+    "cells": _Schema(
+        "cells",
+        "cell",
+        (
+            "key",
+            "task",
+            "method",
+            "params",
+            "seed",
+            "role",
+            "finished_utc",
+            "elapsed_s",
+            "package",
+            "scores",
+            "same_as",
+        ),
+        frozenset({"params", "role", "scores"}),
+        frozenset({"package", "same_as"}),
+    ),
+    "tunings": _Schema(
+        "tunings",
+        "tuning",
+        (
+            "key",
+            *TUNING_KEY_FIELDS,
+            *OPTIONAL_TUNING_FIELDS,
+            "params",
+            "loss",
+            "evaluations",
+            "seconds",
+            "finished_utc",
+        ),
+        frozenset({"params"}),
+        frozenset(OPTIONAL_TUNING_FIELDS),
+    ),
+    "studies": _Schema(
+        "studies",
+        "study",
+        ("key", "study", "item", "setting", "rows", "finished_utc"),
+        frozenset({"setting", "rows"}),
+    ),
+    "failures": _Schema(
+        "failures",
+        "failure",
+        (
+            "key",
+            "cell",
+            "task",
+            "method",
+            "params",
+            "seed",
+            "role",
+            "reason",
+            "package",
+            "finished_utc",
+        ),
+        frozenset({"params", "role"}),
+    ),
+}
+_CHECKS = {
+    "cells": _check_cell,
+    "tunings": _check_tuning,
+    "studies": _check_study,
+    "failures": _check_failure,
+}
+_OLD_FILES = {table: f"{table}.jsonl" for table in _SCHEMAS}
+"""The JSON Lines file of each table in the stores of diffbench before the SQLite store."""
+
+
 class Store:
     """The results store of one output directory: cells and tunings (see module docstring),
     and the rows of studies outside the task model (:meth:`add_study_rows`).
@@ -502,39 +462,212 @@ class Store:
 
     def __init__(self, directory: str | os.PathLike) -> None:
         self.directory = Path(directory)
-        self.cells = RecordFile(self.directory / "cells.jsonl", "cell", _check_cell)
-        self.tunings = RecordFile(self.directory / "tunings.jsonl", "tuning", _check_tuning)
+        self.path = self.directory / STORE_FILE
+        self.runs: dict[str, dict] = {}
+        self.set_aside: list[SetAside] = []
+        self._runs_read = 0
+        self._run_written = False
+        self._pid = os.getpid()
+        old = _read_old_files(self.directory)  # before anything is created: a refusal
+        self.directory.mkdir(parents=True, exist_ok=True)  # changes nothing
+        self._db: sqlite3.Connection | None = None
+        self._open()
+        self.cells = RecordTable(self, _SCHEMAS["cells"], _check_cell)
+        self.tunings = RecordTable(self, _SCHEMAS["tunings"], _check_tuning)
+        self.studies = RecordTable(self, _SCHEMAS["studies"], _check_study)
+        self.failures = RecordTable(self, _SCHEMAS["failures"], _check_failure)
+        if old:
+            self._migrate(old)
+        self.refresh()
 
-        self._studies: RecordFile | None = None
-        self._failures: RecordFile | None = None
+    # --- the database ----------------------------------------------------------------------
+    def _refuse(self, what: str) -> StoreError:
+        return StoreError(
+            f"{self.path} {what}; it is left as it is: move it away (or restore it from a "
+            "backup) or give another --out directory to start a new store"
+        )
 
-    @property
-    def studies(self) -> RecordFile:
-        """``studies.jsonl``: each record the rows a study computed for one item (opened, so
-        created, on first use)."""
-        if self._studies is None:
-            self._studies = RecordFile(self.directory / "studies.jsonl", "study", _check_study)
-        return self._studies
+    def _open(self) -> None:
+        """Connect, check the file is this version's store (or empty), create the tables."""
+        existing = self.path.exists() and self.path.stat().st_size > 0
+        if existing:
+            with open(self.path, "rb") as handle:
+                if handle.read(len(_SQLITE_HEADER)) != _SQLITE_HEADER:
+                    raise self._refuse("is not a diffbench store (not an SQLite database)")
+        try:
+            connection = self._connection()
+            if existing:
+                self._check(connection)
+            mode = connection.execute("PRAGMA journal_mode=WAL").fetchone()[0]
+            if mode != "wal":
+                raise OSError(errno.EIO, f"cannot use WAL mode (journal_mode={mode})", self.path)
+            with self._transaction() as connection:
+                found = connection.execute(
+                    "SELECT name FROM sqlite_master WHERE type = 'table' AND name = 'meta'"
+                ).fetchone()
+                if found is None:
+                    self._create(connection)
+        except sqlite3.DatabaseError as error:
+            self.close()
+            if isinstance(error, sqlite3.OperationalError):
+                raise _os_error(error, self.path) from None
+            raise self._refuse(f"is damaged, SQLite cannot read it ({error})") from None
 
-    @property
-    def failures(self) -> RecordFile:
-        """``failures.jsonl``: one record per failed attempt at a cell (per run), with its
-        reason (opened, so created, on first use; read at opening if it exists)."""
-        if self._failures is None:
-            self._failures = RecordFile(
-                self.directory / "failures.jsonl", "failure", _check_failure
+    def _check(self, connection: sqlite3.Connection) -> None:
+        tables = {
+            name for (name,) in connection.execute("SELECT name FROM sqlite_master")
+        }  # a file that is not a database fails here
+        if "meta" not in tables:
+            if tables:
+                raise self._refuse("is an SQLite database but not a diffbench store")
+            return
+        meta = dict(connection.execute("SELECT name, value FROM meta"))
+        if meta.get("format") != FORMAT:
+            raise self._refuse("is an SQLite database but not a diffbench store")
+        version = meta.get("version")
+        if version != str(VERSION):
+            newer = version is not None and version.isdigit() and int(version) > VERSION
+            raise StoreError(
+                f"{self.path} was written by another diffbench store version: it says version "
+                f"{version}, this diffbench reads version {VERSION} only; read it with the "
+                f"diffbench that wrote it{' (pip install -U diffbench)' if newer else ''}, or "
+                "give another --out directory (or move this store away) to start a new one"
             )
-        return self._failures
+        problems = [row[0] for row in connection.execute("PRAGMA quick_check")]
+        if problems != ["ok"]:
+            raise self._refuse(f"is damaged ({problems[0]})")
 
-    @property
-    def set_aside(self) -> list[SetAside]:
-        extra = [
-            item
-            for file in (self._studies, self._failures)
-            if file is not None
-            for item in file.set_aside
-        ]
-        return self.cells.set_aside + self.tunings.set_aside + extra
+    def _create(self, connection: sqlite3.Connection) -> None:
+        connection.execute("CREATE TABLE meta (name TEXT PRIMARY KEY, value TEXT NOT NULL)")
+        connection.executemany(
+            "INSERT INTO meta VALUES (?, ?)",
+            [
+                ("format", FORMAT),
+                ("version", str(VERSION)),
+                ("store_id", uuid.uuid4().hex),
+                ("created_utc", utc_now()),
+            ],
+        )
+        connection.execute(_RUNS)
+        for schema in _SCHEMAS.values():
+            connection.execute(schema.create())
+
+    def _connection(self) -> sqlite3.Connection:
+        """This process's connection (a forked process opens its own)."""
+        if self._db is None or self._pid != os.getpid():
+            self._pid = os.getpid()
+            self._db = sqlite3.connect(
+                self.path, timeout=LOCK_TIMEOUT_S, isolation_level=None, check_same_thread=False
+            )
+            self._db.execute("PRAGMA synchronous=FULL")
+        return self._db
+
+    @contextlib.contextmanager
+    def _transaction(self) -> Iterator[sqlite3.Connection]:
+        """One write transaction (waiting for other writers); rolled back on any exception,
+        the interruption of the run included."""
+        connection = self._connection()
+        try:
+            connection.execute("BEGIN IMMEDIATE")
+            try:
+                yield connection
+            except BaseException:
+                connection.execute("ROLLBACK")
+                raise
+            connection.execute("COMMIT")
+        except sqlite3.OperationalError as error:
+            if connection.in_transaction:
+                connection.execute("ROLLBACK")
+            raise _os_error(error, self.path) from None
+
+    def close(self) -> None:
+        if self._db is not None:
+            self._db.close()
+            self._db = None
+
+    def _add_run(self, connection: sqlite3.Connection, run: Mapping[str, Any]) -> None:
+        """Store ``run`` once (in the caller's transaction)."""
+        if run["run"] == CURRENT_RUN.run_id and self._run_written:
+            return
+        connection.execute(
+            f"INSERT OR IGNORE INTO runs ({', '.join(_RUN_COLUMNS)}) VALUES (?, ?, ?, ?, ?)",
+            [run.get(name) for name in _RUN_COLUMNS],
+        )
+        self._run_written = self._run_written or run["run"] == CURRENT_RUN.run_id
+
+    def _read_runs(self) -> None:
+        rows = self._connection().execute(
+            f"SELECT id, {', '.join(_RUN_COLUMNS)} FROM runs WHERE id > ? ORDER BY id",
+            (self._runs_read,),
+        )
+        for identity, *values in rows:
+            self.runs[values[0]] = {"record": "run", **dict(zip(_RUN_COLUMNS, values, strict=True))}
+            self._runs_read = identity
+        self._run_written = self._run_written or CURRENT_RUN.run_id in self.runs
+
+    # --- migration -------------------------------------------------------------------------
+    def _migrate(self, old: dict[str, _OldFile]) -> None:
+        """Import the records of an earlier version's files (once: keys are unique), note and
+        copy their bad lines as that version did, then rename each file."""
+        tables = {"cells": self.cells, "tunings": self.tunings}
+        tables.update(studies=self.studies, failures=self.failures)
+        with self._transaction() as connection:
+            for table, found in old.items():
+                for run in found.runs:
+                    self._add_run(connection, run)
+                for record in found.records:
+                    tables[table]._import(connection, record)
+            connection.execute(
+                "INSERT OR REPLACE INTO meta VALUES ('imported_jsonl_utc', ?)", (utc_now(),)
+            )
+        for table, found in old.items():
+            path = self.directory / _OLD_FILES[table]
+            self.set_aside += found.bad
+            _quarantine(path, found.bad, found.lines)
+            target = path.with_name(f"{table}.imported.jsonl")
+            number = 1
+            while target.exists():
+                number += 1
+                target = path.with_name(f"{table}.imported-{number}.jsonl")
+            with contextlib.suppress(FileNotFoundError):  # another opener renamed it
+                os.rename(path, target)
+
+    # --- what the store holds --------------------------------------------------------------
+    def content_version(self, tables: Iterable[str] = ("cells", "tunings")) -> str:
+        """A string that changes whenever a record is added to one of ``tables`` (records are
+        never changed or removed, so the number of rows and the last row id name the content
+        exactly), with the store's identity: a report key (:mod:`bench.core.uptodate`)."""
+        connection = self._connection()
+        (identity,) = connection.execute(
+            "SELECT value FROM meta WHERE name = 'store_id'"
+        ).fetchone()
+        parts = [identity]
+        for table in tables:
+            if table not in _SCHEMAS:
+                raise ValueError(f"`tables`: no table {table!r} (one of {', '.join(_SCHEMAS)})")
+            count, last = connection.execute(f"SELECT count(*), max(id) FROM {table}").fetchone()
+            parts.append(f"{table}={count}/{last or 0}")
+        return ";".join(parts)
+
+    def export(self, directory: str | os.PathLike, format: str = "csv") -> list[Path]:
+        """Write every table (meta, runs, cells, tunings, studies, failures) to one file each in
+        ``directory`` (``<table>.csv`` or ``<table>.parquet``; nested values are canonical JSON
+        text); the files written. Parquet needs pyarrow."""
+        if format not in ("csv", "parquet"):
+            raise ValueError(f"`format` must be 'csv' or 'parquet', got {format!r}")
+        directory = Path(directory)
+        directory.mkdir(parents=True, exist_ok=True)
+        written = []
+        for table in ("meta", "runs", *_SCHEMAS):
+            order = "name" if table == "meta" else "id"
+            frame = pd.read_sql(f"SELECT * FROM {table} ORDER BY {order}", self._connection())
+            path = directory / f"{table}.{format}"
+            if format == "csv":
+                frame.to_csv(path, index=False)
+            else:
+                frame.to_parquet(path, index=False)
+            written.append(path)
+        return written
 
     def add_failure(
         self,
@@ -569,8 +702,6 @@ class Store:
         finished since: task, method, params (canonical JSON), seed, role (canonical JSON),
         reason, package, finished_utc (of the failed attempt)."""
         columns = ["task", "method", "params", "seed", "role", "reason", "package", "finished_utc"]
-        if self._failures is None and not (self.directory / "failures.jsonl").exists():
-            return pd.DataFrame(columns=columns)
         wanted = None if task is None else ({task} if isinstance(task, str) else set(task))
         last: dict[str, dict] = {}
         for record in self.failures.records.values():  # in the order they were written
@@ -615,11 +746,9 @@ class Store:
         return key in self.cells.records
 
     def refresh(self) -> None:
-        self.cells.refresh()
-        self.tunings.refresh()
-        for file in (self._studies, self._failures):
-            if file is not None:
-                file.refresh()
+        """Read the records other writers stored since the last read."""
+        for table in (self.cells, self.tunings, self.studies, self.failures):
+            table.refresh()
 
     def add_cell(
         self,
@@ -809,3 +938,141 @@ def expand_params(frame: pd.DataFrame) -> pd.DataFrame:
     for name in names:
         expanded[f"param.{name}"] = parsed.map(lambda params, key=name: params.get(key))
     return expanded
+
+
+# --- errors --------------------------------------------------------------------------------
+def _os_error(error: sqlite3.Error, path: Path) -> OSError:
+    """SQLite's error on ``path`` as the ``OSError`` the machine gave (reported in one line):
+    a full disk or the file size limit, a read-only folder, a lock held past the timeout."""
+    primary = getattr(error, "sqlite_errorcode", -1) & 0xFF
+    code = {
+        sqlite3.SQLITE_FULL: errno.ENOSPC,
+        sqlite3.SQLITE_IOERR: errno.EIO,
+        sqlite3.SQLITE_READONLY: errno.EROFS,
+        sqlite3.SQLITE_CANTOPEN: errno.EACCES,
+        sqlite3.SQLITE_PERM: errno.EACCES,
+        sqlite3.SQLITE_BUSY: errno.EBUSY,
+    }.get(primary)
+    if code is None:
+        raise error
+    reason = {
+        errno.ENOSPC: "No space left on device or the file size limit reached",
+        errno.EBUSY: f"the store stayed locked by another writer for {LOCK_TIMEOUT_S:.0f} s",
+        errno.EIO: "Input/output error (a full disk, the file size limit or a failing disk)",
+    }.get(code, os.strerror(code))
+    return OSError(code, f"{reason} (SQLite: {error})", str(path))
+
+
+# --- the JSON Lines files of earlier versions (read once, to import them) -------------------
+@dataclasses.dataclass
+class _OldFile:
+    runs: list[dict] = dataclasses.field(default_factory=list)
+    records: list[dict] = dataclasses.field(default_factory=list)
+    bad: list[SetAside] = dataclasses.field(default_factory=list)
+    lines: dict[int, bytes] = dataclasses.field(default_factory=dict)
+
+
+def _read_old_files(directory: Path) -> dict[str, _OldFile]:
+    """The runs, valid records and bad lines of each JSON Lines file of an earlier version in
+    ``directory`` (version 1 of the format); a ``StoreError`` for another version's file or one
+    that is not a store at all."""
+    found = {}
+    for table, name in _OLD_FILES.items():
+        path = directory / name
+        if path.exists():
+            found[table] = _read_old_file(path, _SCHEMAS[table].kind, _CHECKS[table])
+    return found
+
+
+def _read_old_file(path: Path, kind: str, validate: Callable[[dict], None]) -> _OldFile:
+    result = _OldFile()
+    lines = path.read_bytes().split(b"\n")
+    tail = lines.pop()  # b"" when the file ends with a newline, else a torn last line
+    keys: set[str] = set()
+    header_seen = False
+
+    def bad(number: int, raw: bytes, reason: str) -> None:
+        result.bad.append(SetAside(path, number, reason))
+        result.lines[number] = raw
+
+    for number, raw in enumerate(lines, start=1):
+        if not raw.strip():
+            continue
+        try:
+            record = json.loads(raw.decode("utf-8"))
+        except UnicodeDecodeError:
+            bad(number, raw, "not UTF-8 text (binary bytes)")
+            continue
+        except json.JSONDecodeError as error:
+            bad(number, raw, f"not a JSON record ({error.msg} at column {error.colno})")
+            continue
+        if not isinstance(record, dict):
+            bad(number, raw, "not a JSON object")
+        elif record.get("record") == "header" and number == 1:
+            if record.get("format") != FORMAT or record.get("kind") != kind:
+                bad(number, raw, f"not this store's header line ({raw[:80]!r})")
+                continue
+            header_seen = True
+            if record.get("version") != 1:
+                version = record.get("version")
+                newer = isinstance(version, int) and version > 1
+                raise StoreError(
+                    f"{path} was written by another diffbench store version: its header says "
+                    f"version {version!r}, this diffbench reads version 1 only"
+                    f"; read it with the diffbench that wrote it"
+                    f"{' (pip install -U diffbench)' if newer else ''}, or give another --out "
+                    "directory (or move this store away) to start a new one"
+                )
+        elif record.get("record") == "header":
+            bad(number, raw, "a second header line" if number > 1 else "a header")
+        elif record.get("record") == "run":
+            if isinstance(record.get("run"), str):
+                result.runs.append(record)
+            else:
+                bad(number, raw, "run record without a run id")
+        elif record.get("record") != kind:
+            bad(number, raw, f"not a {kind} record (record={record.get('record')!r})")
+        else:
+            try:
+                validate(record)
+                if not isinstance(record.get("run"), str):
+                    raise ValueError("`run` must be a str")
+            except (ValueError, TypeError, KeyError) as error:
+                bad(number, raw, f"invalid {kind} record: {error}")
+                continue
+            if record["key"] in keys:
+                bad(number, raw, "duplicate of an earlier record (same key)")
+            else:
+                keys.add(record["key"])
+                result.records.append(record)
+    if tail:
+        bad(len(lines) + 1, tail, "torn last line (a write cut short)")
+    if result.bad and not header_seen and not result.records and not result.runs:
+        raise StoreError(
+            f"{path} is not a diffbench store and holds no diffbench record; "
+            "move it away or choose another --out directory"
+        )
+    return result
+
+
+def _quarantine(path: Path, bad: list[SetAside], lines: dict[int, bytes]) -> None:
+    """Copy the bad lines of ``path`` to ``<name>.quarantine.jsonl`` (with line and reason)."""
+    if not bad:
+        return
+    entries = [
+        canonical(
+            {
+                "file": path.name,
+                "line": item.line,
+                "reason": item.reason,
+                "found_utc": utc_now(),
+                "text": lines[item.line].decode("utf-8", errors="backslashreplace"),
+            }
+        )
+        + "\n"
+        for item in bad
+    ]
+    with open(path.with_name(path.stem + ".quarantine.jsonl"), "a", encoding="utf-8") as handle:
+        handle.write("".join(entries))
+        handle.flush()
+        os.fsync(handle.fileno())

@@ -9,8 +9,8 @@ its files, the key of the inputs it was written from and the list of files writt
 skips the report and lists the same files.
 
 The key is conservative: any change of diffbench's code or data files, of a package version, of
-the options, or of the store files read (any appended row, whatever its task) writes the report
-again.
+the options, or of the store tables read (any added row, whatever its task: the store's content
+version) writes the report again.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import functools
 import hashlib
 import json
 import os
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from pathlib import Path
 
 from diffbench.bench.core.provenance import SOURCE_ROOT, provenance
@@ -53,21 +53,11 @@ def code_fingerprint() -> str:
     return f"{_source_digest()};{provenance()['versions']}"
 
 
-def file_digest(path: Path) -> str:
-    """SHA-256 of the file's bytes, ``absent`` for a missing file."""
-    try:
-        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-    except FileNotFoundError:
-        return "absent"
-
-
-def inputs_key(options: dict, files: Iterable[Path] = ()) -> str:
-    """The key of a report written with ``options`` (JSON-able) from ``files`` by this code."""
-    content = {
-        "code": code_fingerprint(),
-        "options": options,
-        "files": [(Path(path).name, file_digest(path)) for path in files],
-    }
+def inputs_key(options: dict, store_version: str = "") -> str:
+    """The key of a report written with ``options`` (JSON-able) from the store's content
+    ``store_version`` (:meth:`diffbench.bench.core.store.Store.content_version`) by this
+    code."""
+    content = {"code": code_fingerprint(), "options": options, "store": store_version}
     return hashlib.sha256(json.dumps(content, sort_keys=True, default=str).encode()).hexdigest()
 
 

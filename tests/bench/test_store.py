@@ -1,19 +1,34 @@
-"""The results store keeps every good record through damage, duplicates and concurrent writers."""
+"""The results store (SQLite) keeps every stored record through damage, kills and concurrent
+writers, reads numbers back bit for bit, and imports the JSON Lines stores of earlier versions."""
 
 import json
+import math
 import os
+import signal
+import sqlite3
 import subprocess
 import sys
 import textwrap
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
 from diffbench.bench.core.roles import Role
-from diffbench.bench.core.store import Store
+from diffbench.bench.core.store import STORE_FILE, Store, StoreError, canonical, tuning_key
 
 ROOT = Path(__file__).resolve().parents[2]
 ROLE = Role.of_preset("paper-signal", "paper").as_dict()
+ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
+FIELDS = {
+    "task": "t",
+    "method": "m",
+    "criterion": "oracle",
+    "order": 1,
+    "tuning_seed": 10_000,
+    "cutoff_hz": None,
+    "budget": None,
+}
 
 
 def _add(store, seed, value=1.0, method="m"):
@@ -33,7 +48,8 @@ def _filled(tmp_path, cells=5) -> Path:
     store = Store(tmp_path / "store")
     for seed in range(cells):
         assert _add(store, seed)
-    return store.cells.path
+    store.close()
+    return store.path
 
 
 def _values(directory) -> dict[int, float]:
@@ -41,9 +57,9 @@ def _values(directory) -> dict[int, float]:
     return dict(zip(frame["seed"], frame["value"], strict=True))
 
 
-def _quarantined(path: Path) -> list[dict]:
-    quarantine = path.with_name("cells.quarantine.jsonl")
-    return [json.loads(line) for line in quarantine.read_text().splitlines()]
+def _rows(path: Path, sql: str) -> list[tuple]:
+    with sqlite3.connect(path) as connection:
+        return connection.execute(sql).fetchall()
 
 
 def test_records_round_trip_exactly_with_provenance_once_per_run(tmp_path):
@@ -54,10 +70,58 @@ def test_records_round_trip_exactly_with_provenance_once_per_run(tmp_path):
     assert frame["value"].iloc[0] == 0.1 + 0.2  # bit-exact
     assert frame["value"].isna().iloc[1]
     assert set(frame["origin"]) == {"preset"} and set(frame["by"]) == {"paper"}
-    lines = store.cells.path.read_text().splitlines()
-    kinds = [json.loads(line)["record"] for line in lines]
-    assert kinds == ["header", "run", "cell", "cell"]  # provenance once, not per row
-    assert "git_rev" in json.loads(lines[1]) and "git_rev" not in json.loads(lines[2])
+    assert store.path == tmp_path / "store" / STORE_FILE
+    runs = _rows(store.path, "SELECT run, git_rev FROM runs")
+    assert len(runs) == 1 and runs[0][1]  # provenance once, not per row
+    assert _rows(store.path, "SELECT DISTINCT run FROM cells") == [(runs[0][0],)]
+    assert "git_rev" not in [c[1] for c in _rows(store.path, "PRAGMA table_info(cells)")]
+    assert _rows(store.path, "PRAGMA journal_mode") == [("wal",)]
+    meta = dict(_rows(store.path, "SELECT name, value FROM meta"))
+    assert meta["format"] == "diffbench-store" and meta["version"] == "2"
+
+
+AWKWARD = [1e-300, 0.1 + 0.2, -0.0, 5e-324, 1.7976931348623157e308, math.inf, -math.inf, 1 / 3]
+
+
+def _same(a: float, b: float) -> bool:
+    """Equal bit for bit (the sign of zero too)."""
+    return math.copysign(1.0, a) == math.copysign(1.0, b) and (a == b or (a != a and b != b))
+
+
+def test_awkward_floats_round_trip_bit_for_bit(tmp_path):
+    store = Store(tmp_path / "store")
+    scores = [
+        {"order": 1, "region": "interior", "metric": f"m{i}", "value": value}
+        for i, value in enumerate(AWKWARD)
+    ]
+    params = {f"p{i}": value for i, value in enumerate(AWKWARD)}
+    assert store.add_cell(
+        task="t", method="m", params=params, seed=0, role=ROLE, scores=scores, elapsed_s=0.1
+    )
+    for i, value in enumerate(AWKWARD):
+        fields = {**FIELDS, "tuning_seed": i}
+        assert store.add_tuning(**fields, params=params, loss=value, evaluations=1, seconds=0.25)
+    rows = [{"value": value, "name": "x"} for value in AWKWARD]
+    assert store.add_study_rows("s", "item", ["a"], rows)
+    store.close()
+    again = Store(tmp_path / "store")
+    frame = again.cells_frame("t")
+    assert all(_same(a, b) for a, b in zip(frame["value"], AWKWARD, strict=True))
+    (record,) = again.cells.records.values()
+    assert all(_same(record["params"][f"p{i}"], v) for i, v in enumerate(AWKWARD))
+    tunings = again.tunings_frame().sort_values("tuning_seed")
+    assert all(_same(a, b) for a, b in zip(tunings["loss"], AWKWARD, strict=True))
+    assert all(
+        _same(again.find_tuning(**{**FIELDS, "tuning_seed": i})["params"][f"p{i}"], value)
+        for i, value in enumerate(AWKWARD)
+    )
+    found = again.find_study_rows("s", "item", ["a"])
+    assert all(_same(row["value"], v) for row, v in zip(found, AWKWARD, strict=True))
+    # pandas reads the tables with read_sql; the scores column is the canonical JSON
+    with sqlite3.connect(again.path) as connection:
+        cells = pd.read_sql("SELECT scores FROM cells", connection)
+    values = [score[3] for score in json.loads(cells["scores"].iloc[0])]
+    assert all(_same(a, b) for a, b in zip(values, AWKWARD, strict=True))
 
 
 def test_a_stored_key_is_refused(tmp_path):
@@ -65,82 +129,78 @@ def test_a_stored_key_is_refused(tmp_path):
     assert _add(store, 0)
     assert not _add(store, 0, value=99.0)
     assert _values(tmp_path / "store") == {0: 1.0}
+    other = Store(tmp_path / "store")  # a second writer that has not read the first's cell
+    assert not _add(other, 0, value=98.0) and other.has_cell(next(iter(store.cells.records)))
+    assert _rows(store.path, "SELECT count(*) FROM cells") == [(1,)]
+
+
+def test_an_invalid_record_is_refused_before_it_is_written(tmp_path):
+    store = Store(tmp_path / "store")
+    with pytest.raises(ValueError, match="`tuning_seeds` must be an integer >= 1"):
+        store.add_tuning(**FIELDS, tuning_seeds=0, params={}, loss=0.5, evaluations=1, seconds=0.1)
+    assert _rows(store.path, "SELECT count(*) FROM tunings") == [(0,)]
+
+
+def _damaged(data: bytes, damage: str) -> bytes:
+    page = 4096
+    return {
+        "garbage": bytes(range(256)) * (len(data) // 256),
+        "truncated to half": data[: len(data) // 2],
+        "truncated in the header": data[:60],
+        "last page cut": data[:-page],
+        "a page overwritten": data[: 3 * page] + b"\xff" * page + data[4 * page :],
+        "a text file": b"a,b\n1,2\n",
+    }[damage]
 
 
 @pytest.mark.parametrize(
-    ("damage", "line", "reason"),
+    "damage",
     [
-        ("garbage", 4, "not a JSON record"),
-        ("binary", 4, "not UTF-8 text"),
-        ("torn", 8, "torn last line"),
-        ("header", 1, "not this store's header line"),
-        ("edited", 4, "`key` does not match"),
+        "garbage",
+        "truncated to half",
+        "truncated in the header",
+        "last page cut",
+        "a page overwritten",
+        "a text file",
     ],
 )
-def test_a_damaged_file_keeps_every_good_record_and_sets_the_bad_line_aside(
-    tmp_path, damage, line, reason, capsys
-):
-    path = _filled(tmp_path)
-    lines = path.read_bytes().split(b"\n")  # header, run, 5 cells, ""
-    if damage == "garbage":
-        lines.insert(3, b"oops")
-    elif damage == "binary":
-        lines.insert(3, bytes(range(128, 256)))
-    elif damage == "torn":
-        lines[-1] = lines[4][:40]  # a sixth cell cut mid-write: no final newline
-    elif damage == "header":
-        lines[0] = b"cell_key,method,params,preset,scenario,seed"
-    elif damage == "edited":  # a hand edit of a value: the key no longer matches the content
-        lines.insert(3, lines[3].replace(b'"seed":1', b'"seed":7'))
-    path.write_bytes(b"\n".join(lines))
-    store = Store(tmp_path / "store")
-    assert [(item.line, reason in item.reason) for item in store.set_aside] == [(line, True)]
-    assert _values(tmp_path / "store") == {seed: 1.0 + seed for seed in range(5)}
-    assert [entry["line"] for entry in _quarantined(path)] == [line]
-    # the file is repaired: a second open sets nothing aside, and new records append cleanly
-    again = Store(tmp_path / "store")
-    assert again.set_aside == []
-    assert _add(again, 9)
-    assert len(_values(tmp_path / "store")) == 6
+def test_a_damaged_database_is_refused_in_one_line_and_never_overwritten(tmp_path, damage):
+    path = _filled(tmp_path, cells=120)
+    damaged = _damaged(path.read_bytes(), damage)
+    path.write_bytes(damaged)
+    with pytest.raises(StoreError) as refused:
+        Store(tmp_path / "store")
+    message = str(refused.value)
+    assert "\n" not in message and str(path) in message
+    assert "move it away" in message and "another --out directory" in message
+    assert path.read_bytes() == damaged
+
+
+def test_another_sqlite_database_or_version_is_refused_not_overwritten(tmp_path):
+    foreign = tmp_path / "foreign" / STORE_FILE
+    foreign.parent.mkdir()
+    with sqlite3.connect(foreign) as connection:
+        connection.execute("CREATE TABLE t (x)")
+    data = foreign.read_bytes()
+    with pytest.raises(StoreError, match="an SQLite database but not a diffbench store"):
+        Store(foreign.parent)
+    assert foreign.read_bytes() == data
+    path = _filled(tmp_path, cells=1)
+    with sqlite3.connect(path) as connection:
+        connection.execute("UPDATE meta SET value = '3' WHERE name = 'version'")
+    data = path.read_bytes()
+    with pytest.raises(StoreError, match="another diffbench store version: it says version 3"):
+        Store(path.parent)
+    assert path.read_bytes() == data
 
 
 def test_an_empty_file_is_a_new_store(tmp_path):
-    path = tmp_path / "store" / "cells.jsonl"
+    path = tmp_path / "store" / STORE_FILE
     path.parent.mkdir()
     path.write_bytes(b"")
     store = Store(tmp_path / "store")
     assert store.set_aside == [] and _add(store, 0)
     assert _values(tmp_path / "store") == {0: 1.0}
-
-
-def test_a_torn_tail_then_an_append_keeps_both_cells(tmp_path):
-    """A killed writer leaves half a line; the next writer (already open) starts a new line."""
-    path = _filled(tmp_path, cells=2)
-    store = Store(tmp_path / "store")
-    with open(path, "ab") as handle:
-        handle.write(b'{"record":"cell","key":"[\\"t\\"')
-    assert _add(store, 5)
-    reopened = Store(tmp_path / "store")
-    assert [item.line for item in reopened.set_aside] == [5]  # header, run, 2 cells, the tear
-    assert _values(tmp_path / "store") == {0: 1.0, 1: 2.0, 5: 6.0}
-
-
-def test_a_foreign_file_is_refused_not_overwritten(tmp_path):
-    path = tmp_path / "store" / "cells.jsonl"
-    path.parent.mkdir()
-    path.write_text("a,b\n1,2\n")
-    with pytest.raises(ValueError, match="is not a diffbench store"):
-        Store(tmp_path / "store")
-    assert path.read_text() == "a,b\n1,2\n"
-
-
-def test_another_store_version_is_refused(tmp_path):
-    path = _filled(tmp_path, cells=1)
-    text = path.read_text().replace('"version":1', '"version":2', 1)
-    path.write_text(text)
-    with pytest.raises(ValueError, match="another diffbench store version"):
-        Store(tmp_path / "store")
-    assert path.read_text() == text
 
 
 WRITER = textwrap.dedent(
@@ -154,9 +214,12 @@ WRITER = textwrap.dedent(
     written = 0
     for seed in range(int(sys.argv[2])):
         store.refresh()
-        written += store.add_cell(task="t", method="m", params={}, seed=seed, role=role,
-                                  scores=[{"order": 1, "region": "r", "metric": "x",
-                                           "value": float(seed)}], elapsed_s=0.0)
+        stored = store.add_cell(task="t", method="m", params={}, seed=seed, role=role,
+                                scores=[{"order": 1, "region": "r", "metric": "x",
+                                         "value": float(seed)}], elapsed_s=0.0)
+        written += stored
+        if len(sys.argv) > 3 and stored:
+            print(seed, flush=True)
     print(written)
     """
 )
@@ -166,23 +229,196 @@ def test_two_concurrent_writers_store_every_cell_exactly_once(tmp_path):
     directory = tmp_path / "store"
     Store(directory)
     cells = 300
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
     writers = [
         subprocess.Popen(
             [sys.executable, "-c", WRITER, str(directory), str(cells)],
             stdout=subprocess.PIPE,
             text=True,
-            env=env,
+            env=ENV,
         )
         for _ in range(2)
     ]
     counts = [int(w.communicate(timeout=120)[0]) for w in writers]
     assert all(w.returncode == 0 for w in writers)
     assert sum(counts) == cells  # every cell written by exactly one of them
-    lines = [json.loads(x) for x in (directory / "cells.jsonl").read_text().splitlines()]
-    keys = [line["key"] for line in lines if line["record"] == "cell"]
+    keys = _rows(directory / STORE_FILE, "SELECT key FROM cells")
     assert len(keys) == len(set(keys)) == cells
+    assert len(_rows(directory / STORE_FILE, "SELECT run FROM runs")) == 2  # one per writer
+    assert len(Store(directory).cells.records) == cells
+
+
+def test_a_writer_killed_mid_run_loses_no_stored_cell(tmp_path):
+    """SIGKILL of a process writing cells as fast as it can: every cell it reported stored
+    (after its commit returned) is there, the database opens cleanly and takes new cells."""
+    directory = tmp_path / "store"
+    writer = subprocess.Popen(
+        [sys.executable, "-c", WRITER, str(directory), "100000", "report"],
+        stdout=subprocess.PIPE,
+        text=True,
+        env=ENV,
+    )
+    reported = []
+    for line in writer.stdout:
+        reported.append(int(line))
+        if len(reported) == 200:
+            break
+    writer.send_signal(signal.SIGKILL)
+    writer.communicate(timeout=60)
+    assert writer.returncode == -signal.SIGKILL
+    store = Store(directory)
+    stored = {record["seed"] for record in store.cells.records.values()}
+    assert set(reported) <= stored and len(stored) < 100000
+    assert stored == set(range(len(stored)))  # nothing half-written in between
+    assert _rows(store.path, "PRAGMA integrity_check") == [("ok",)]
+    assert _add(store, 100000 + 1)
+
+
+def test_the_content_version_changes_with_every_added_record_only(tmp_path):
+    store = Store(tmp_path / "store")
+    empty = store.content_version()
+    assert _add(store, 0)
+    one = store.content_version()
+    assert one != empty and not _add(store, 0) and store.content_version() == one
+    assert store.content_version(("tunings",)) == Store(tmp_path / "store").content_version(
+        ("tunings",)
+    )
+    assert Store(tmp_path / "other").content_version() != empty  # another store's identity
+    with pytest.raises(ValueError, match="`tables`: no table 'cell'"):
+        store.content_version(("cell",))
+
+
+@pytest.mark.parametrize("format", ["csv", "parquet"])
+def test_the_export_writes_one_file_per_table(tmp_path, format):
+    if format == "parquet":
+        pytest.importorskip("pyarrow")
+    store = Store(tmp_path / "store")
+    for seed in range(3):
+        assert _add(store, seed, value=0.1 + 0.2)
+    assert store.add_tuning(**FIELDS, params={"w": 1e-300}, loss=-0.0, evaluations=3, seconds=1)
+    written = store.export(tmp_path / "export", format=format)
+    names = ["meta", "runs", "cells", "tunings", "studies", "failures"]
+    assert written == [tmp_path / "export" / f"{name}.{format}" for name in names]
+    read = pd.read_csv if format == "csv" else pd.read_parquet
+    cells, tunings = read(written[2]), read(written[3])
+    assert list(cells["seed"]) == [0, 1, 2] and len(read(written[1])) == 1
+    assert [json.loads(s)[0][3] for s in cells["scores"]] == [0.1 + 0.2 + s for s in range(3)]
+    assert json.loads(tunings["params"].iloc[0]) == {"w": 1e-300}
+    assert tunings["key"].iloc[0] == tuning_key(**FIELDS)
+    if format == "parquet":  # typed: the sign of zero is kept
+        assert math.copysign(1.0, tunings["loss"].iloc[0]) == -1.0
+    with pytest.raises(ValueError, match="`format` must be 'csv' or 'parquet'"):
+        store.export(tmp_path / "export", format="xlsx")
+
+
+# --- the JSON Lines store of earlier versions ------------------------------------------------
+RUN_LINE = (
+    '{"command":"diffbench run t","git_rev":"abc123","record":"run","run":"0123456789abcdef",'
+    '"started_utc":"2026-11-20T09:59:00+00:00","versions":"numpy=2.0"}'
+)
+CELL_LINE = (  # a cell exactly as diffbench's JSON Lines store wrote it
+    '{"elapsed_s":0.25,"finished_utc":"2026-11-20T10:00:00+00:00","key":"[\\"t\\",\\"m\\",'
+    '{\\"w\\":0.5},0,{\\"by\\":\\"paper\\",\\"criterion\\":\\"\\",\\"cutoff_hz\\":null,'
+    '\\"origin\\":\\"preset\\",\\"preset\\":\\"paper-signal\\",\\"tuned_order\\":null,'
+    '\\"tuning_seed\\":null,\\"variant\\":\\"\\"}]","method":"m","package":"diffbench 1.0",'
+    '"params":{"w":0.5},"record":"cell","role":{"by":"paper","criterion":"",'
+    '"cutoff_hz":null,"origin":"preset","preset":"paper-signal","tuned_order":null,'
+    '"tuning_seed":null,"variant":""},"run":"0123456789abcdef",'
+    '"scores":[[1,"interior","rmse",0.30000000000000004]],"seed":0,"task":"t"}'
+)
+
+
+def _header(kind: str, version: int = 1) -> str:
+    return canonical(
+        {"record": "header", "format": "diffbench-store", "kind": kind, "version": version}
+    )
+
+
+def _old_store(directory: Path) -> None:
+    """A store as diffbench wrote it before SQLite: four JSON Lines files, with a torn last
+    line (a killed writer), a line of garbage and a tuning with an invalid seed count."""
+    directory.mkdir(parents=True)
+    tuning = {
+        "record": "tuning",
+        "key": tuning_key(**FIELDS),
+        **FIELDS,
+        "params": {"w": 2.5},
+        "loss": 0.5,
+        "evaluations": 3,
+        "seconds": 0.1,
+        "finished_utc": "2026-11-20T10:01:00+00:00",
+        "run": "0123456789abcdef",
+    }
+    bad = {
+        **tuning,
+        "tuning_seed": 1,
+        "tuning_seeds": 0,
+        "key": tuning_key(**{**FIELDS, "tuning_seed": 1}, tuning_seeds=0),
+    }
+    study = {
+        "record": "study",
+        "key": canonical(["s", "i", ["a"]]),
+        "study": "s",
+        "item": "i",
+        "setting": ["a"],
+        "rows": [[["value", 1e-300]]],
+        "finished_utc": "2026-11-20T10:02:00+00:00",
+        "run": "0123456789abcdef",
+    }
+    lines = {
+        "cells.jsonl": [_header("cell"), RUN_LINE, CELL_LINE, "oops"],
+        "tunings.jsonl": [_header("tuning"), RUN_LINE, canonical(tuning), canonical(bad)],
+        "studies.jsonl": [_header("study"), RUN_LINE, canonical(study)],
+    }
+    for name, content in lines.items():
+        (directory / name).write_text("\n".join(content) + "\n")
+    with (directory / "cells.jsonl").open("a") as handle:
+        handle.write(CELL_LINE[:40])  # torn
+
+
+def test_an_old_json_lines_store_is_imported_once_with_its_runs(tmp_path):
+    directory = tmp_path / "store"
+    _old_store(directory)
+    before = {path.name: path.read_bytes() for path in directory.iterdir()}
+    store = Store(directory)
+    assert sorted(str(item) for item in store.set_aside) == [
+        "cells.jsonl line 4: not a JSON record (Expecting value at column 1)",
+        "cells.jsonl line 5: torn last line (a write cut short)",
+        "tunings.jsonl line 4: invalid tuning record: `tuning_seeds` must be an integer >= 1,"
+        " got 0",
+    ]
+    quarantined = (directory / "cells.quarantine.jsonl").read_text().splitlines()
+    assert [json.loads(line)["line"] for line in quarantined] == [4, 5]
+    for name, data in before.items():  # kept, byte for byte, under a name that says so
+        assert not (directory / name).exists()
+        assert (directory / name.replace(".jsonl", ".imported.jsonl")).read_bytes() == data
+    (cell,) = store.cells.records.values()
+    assert cell == json.loads(CELL_LINE)  # the record and its key as they were
+    frame = store.cells_frame("t")
+    assert frame["value"].iloc[0] == 0.1 + 0.2 and set(frame["git_rev"]) == {"abc123"}
+    assert store.revisions() == {"abc123"}
+    assert store.find_tuning(**FIELDS)["params"] == {"w": 2.5}
+    assert store.find_study_rows("s", "i", ["a"]) == [{"value": 1e-300}]
+    assert store.runs["0123456789abcdef"]["command"] == "diffbench run t"
+    # the same files again (an older diffbench kept writing): every record still once
+    (directory / "cells.jsonl").write_bytes(before["cells.jsonl"])
+    again = Store(directory)
+    assert len(again.cells.records) == 1 and len(again.runs) == 1
+    assert (directory / "cells.imported-2.jsonl").read_bytes() == before["cells.jsonl"]
     assert Store(directory).set_aside == []
+    assert _rows(again.path, "SELECT count(*) FROM cells") == [(1,)]
+
+
+def test_an_old_store_of_another_version_or_a_foreign_file_is_refused_untouched(tmp_path):
+    directory = tmp_path / "store"
+    directory.mkdir()
+    (directory / "cells.jsonl").write_text(_header("cell", version=7) + "\n")
+    with pytest.raises(StoreError, match="another diffbench store version: its header says"):
+        Store(directory)
+    assert not (directory / STORE_FILE).exists()
+    (directory / "cells.jsonl").write_text("a,b\n1,2\n")
+    with pytest.raises(StoreError, match="is not a diffbench store"):
+        Store(directory)
+    assert (directory / "cells.jsonl").read_text() == "a,b\n1,2\n"
 
 
 def one_dict() -> dict:
@@ -245,35 +481,3 @@ def test_a_one_seed_tuning_keeps_the_keys_stored_before_the_seed_count_existed(t
         Role.tuned("oracle", 1, 10_000, seeds=0)
     with pytest.raises(ValueError, match="only a tuned role"):
         Role(origin="preset", tuning_seeds=2)
-
-
-def test_a_record_with_a_bad_seed_count_is_set_aside(tmp_path):
-    from diffbench.bench.core.store import tuning_key
-
-    store = Store(tmp_path / "store")
-    fields = {
-        "task": "t",
-        "method": "m",
-        "criterion": "oracle",
-        "order": 1,
-        "tuning_seed": 10_000,
-        "cutoff_hz": None,
-        "budget": None,
-    }
-    assert store.add_tuning(**fields, params={}, loss=0.5, evaluations=1, seconds=0.1)
-    bad = {
-        "record": "tuning",
-        "key": tuning_key(**fields, tuning_seeds=0),
-        **fields,
-        "tuning_seeds": 0,
-        "params": {},
-        "loss": 0.5,
-        "evaluations": 1,
-        "seconds": 0.1,
-        "finished_utc": "2026-11-24T00:00:00Z",
-    }
-    with store.tunings.path.open("a") as handle:
-        handle.write(json.dumps(bad) + "\n")
-    again = Store(tmp_path / "store")
-    assert len(again.tunings.records) == 1
-    assert [str(item) for item in again.set_aside] and "tuning_seeds" in str(again.set_aside[0])
