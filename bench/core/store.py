@@ -27,9 +27,10 @@ Guarantees
   loses no finished record, and the same command computes only what is missing.
 * **Migration.** A folder holding the JSON Lines files of earlier diffbench versions
   (``cells.jsonl``, ``tunings.jsonl``, ``studies.jsonl``, ``failures.jsonl``) is imported on
-  opening: every valid record with its run (keys are unique, so an import twice stores each
-  once); lines that are not valid records are listed in :attr:`Store.set_aside` and copied to
-  ``<name>.quarantine.jsonl`` as before; each file is then renamed ``<name>.imported.jsonl``.
+  opening, once: every valid record with its run, in one transaction (the database notes the
+  import; keys are unique, so two openers store each record once). The lines that are not
+  valid records (a torn last line, garbage) are listed in :attr:`Store.set_aside` by the
+  opening that imports. The files are left as they are, and read no more.
 """
 
 from __future__ import annotations
@@ -225,9 +226,6 @@ class RecordTable:
             return False
         self.records.setdefault(record["key"], record)
         return True
-
-    def _import(self, connection: sqlite3.Connection, record: Mapping[str, Any]) -> None:
-        connection.execute(self._insert, [*self.schema.row(record), record["run"]])
 
 
 # --- cells ---------------------------------------------------------------------------------
@@ -468,14 +466,21 @@ class Store:
         self._runs_read = 0
         self._run_written = False
         self._pid = os.getpid()
-        old = _read_old_files(self.directory)  # before anything is created: a refusal
-        self.directory.mkdir(parents=True, exist_ok=True)  # changes nothing
         self._db: sqlite3.Connection | None = None
+        # an earlier version's files are read before anything is created (a refusal changes
+        # nothing), unless this database says it imported them
+        fresh = not (self.path.exists() and self.path.stat().st_size > 0)
+        old = _read_old_files(self.directory) if fresh else {}
+        self.directory.mkdir(parents=True, exist_ok=True)
         self._open()
+        if not fresh and not self._meta("imported_jsonl_utc"):
+            old = _read_old_files(self.directory)
         self.cells = RecordTable(self, _SCHEMAS["cells"], _check_cell)
         self.tunings = RecordTable(self, _SCHEMAS["tunings"], _check_tuning)
         self.studies = RecordTable(self, _SCHEMAS["studies"], _check_study)
         self.failures = RecordTable(self, _SCHEMAS["failures"], _check_failure)
+        self.tables = {"cells": self.cells, "tunings": self.tunings}
+        self.tables.update(studies=self.studies, failures=self.failures)
         if old:
             self._migrate(old)
         self.refresh()
@@ -606,31 +611,31 @@ class Store:
         self._run_written = self._run_written or CURRENT_RUN.run_id in self.runs
 
     # --- migration -------------------------------------------------------------------------
+    def _meta(self, name: str) -> str | None:
+        found = self._connection().execute("SELECT value FROM meta WHERE name = ?", (name,))
+        row = found.fetchone()
+        return None if row is None else row[0]
+
     def _migrate(self, old: dict[str, _OldFile]) -> None:
-        """Import the records of an earlier version's files (once: keys are unique), note and
-        copy their bad lines as that version did, then rename each file."""
-        tables = {"cells": self.cells, "tunings": self.tunings}
-        tables.update(studies=self.studies, failures=self.failures)
+        """Import the valid records of an earlier version's files with their runs, in one
+        transaction, once (the database notes it; keys are unique, so concurrent openers
+        store each record once); the files are left as they are and read no more."""
         with self._transaction() as connection:
+            if connection.execute(
+                "SELECT 1 FROM meta WHERE name = 'imported_jsonl_utc'"
+            ).fetchone():
+                return  # another opener imported them
             for table, found in old.items():
                 for run in found.runs:
                     self._add_run(connection, run)
                 for record in found.records:
-                    tables[table]._import(connection, record)
-            connection.execute(
-                "INSERT OR REPLACE INTO meta VALUES ('imported_jsonl_utc', ?)", (utc_now(),)
-            )
-        for table, found in old.items():
-            path = self.directory / _OLD_FILES[table]
+                    connection.execute(
+                        self.tables[table]._insert,
+                        [*_SCHEMAS[table].row(record), record["run"]],
+                    )
+            connection.execute("INSERT INTO meta VALUES ('imported_jsonl_utc', ?)", (utc_now(),))
+        for found in old.values():
             self.set_aside += found.bad
-            _quarantine(path, found.bad, found.lines)
-            target = path.with_name(f"{table}.imported.jsonl")
-            number = 1
-            while target.exists():
-                number += 1
-                target = path.with_name(f"{table}.imported-{number}.jsonl")
-            with contextlib.suppress(FileNotFoundError):  # another opener renamed it
-                os.rename(path, target)
 
     # --- what the store holds --------------------------------------------------------------
     def content_version(self, tables: Iterable[str] = ("cells", "tunings")) -> str:
@@ -969,7 +974,6 @@ class _OldFile:
     runs: list[dict] = dataclasses.field(default_factory=list)
     records: list[dict] = dataclasses.field(default_factory=list)
     bad: list[SetAside] = dataclasses.field(default_factory=list)
-    lines: dict[int, bytes] = dataclasses.field(default_factory=dict)
 
 
 def _read_old_files(directory: Path) -> dict[str, _OldFile]:
@@ -993,7 +997,6 @@ def _read_old_file(path: Path, kind: str, validate: Callable[[dict], None]) -> _
 
     def bad(number: int, raw: bytes, reason: str) -> None:
         result.bad.append(SetAside(path, number, reason))
-        result.lines[number] = raw
 
     for number, raw in enumerate(lines, start=1):
         if not raw.strip():
@@ -1053,26 +1056,3 @@ def _read_old_file(path: Path, kind: str, validate: Callable[[dict], None]) -> _
             "move it away or choose another --out directory"
         )
     return result
-
-
-def _quarantine(path: Path, bad: list[SetAside], lines: dict[int, bytes]) -> None:
-    """Copy the bad lines of ``path`` to ``<name>.quarantine.jsonl`` (with line and reason)."""
-    if not bad:
-        return
-    entries = [
-        canonical(
-            {
-                "file": path.name,
-                "line": item.line,
-                "reason": item.reason,
-                "found_utc": utc_now(),
-                "text": lines[item.line].decode("utf-8", errors="backslashreplace"),
-            }
-        )
-        + "\n"
-        for item in bad
-    ]
-    with open(path.with_name(path.stem + ".quarantine.jsonl"), "a", encoding="utf-8") as handle:
-        handle.write("".join(entries))
-        handle.flush()
-        os.fsync(handle.fileno())

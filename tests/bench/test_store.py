@@ -386,11 +386,7 @@ def test_an_old_json_lines_store_is_imported_once_with_its_runs(tmp_path):
         "tunings.jsonl line 4: invalid tuning record: `tuning_seeds` must be an integer >= 1,"
         " got 0",
     ]
-    quarantined = (directory / "cells.quarantine.jsonl").read_text().splitlines()
-    assert [json.loads(line)["line"] for line in quarantined] == [4, 5]
-    for name, data in before.items():  # kept, byte for byte, under a name that says so
-        assert not (directory / name).exists()
-        assert (directory / name.replace(".jsonl", ".imported.jsonl")).read_bytes() == data
+    assert {name: (directory / name).read_bytes() for name in before} == before  # untouched
     (cell,) = store.cells.records.values()
     assert cell == json.loads(CELL_LINE)  # the record and its key as they were
     frame = store.cells_frame("t")
@@ -399,13 +395,54 @@ def test_an_old_json_lines_store_is_imported_once_with_its_runs(tmp_path):
     assert store.find_tuning(**FIELDS)["params"] == {"w": 2.5}
     assert store.find_study_rows("s", "i", ["a"]) == [{"value": 1e-300}]
     assert store.runs["0123456789abcdef"]["command"] == "diffbench run t"
-    # the same files again (an older diffbench kept writing): every record still once
-    (directory / "cells.jsonl").write_bytes(before["cells.jsonl"])
+    # opened again: the files are not read again, every record is still there once
+    store.close()
     again = Store(directory)
-    assert len(again.cells.records) == 1 and len(again.runs) == 1
-    assert (directory / "cells.imported-2.jsonl").read_bytes() == before["cells.jsonl"]
-    assert Store(directory).set_aside == []
+    assert again.set_aside == [] and len(again.cells.records) == 1 and len(again.runs) == 1
     assert _rows(again.path, "SELECT count(*) FROM cells") == [(1,)]
+
+
+V1 = Path(__file__).parent / "data" / "store_v1"
+"""A store written by diffbench's JSON Lines store (bench/core/store.py at cbfef4f): two runs,
+seven cells (1e-300, 0.1 + 0.2, -0.0, NaN, inf, 5e-324 as scores; one with ``same_as``), a
+tuning, a study's rows, a failure, and a torn last line in cells.jsonl."""
+
+
+def test_a_store_written_by_the_json_lines_code_is_migrated_exactly(tmp_path):
+    directory = tmp_path / "store"
+    directory.mkdir()
+    lines = {}
+    for path in V1.iterdir():
+        (directory / path.name).write_bytes(path.read_bytes())
+        lines[path.stem] = [json.loads(line) for line in path.read_text().splitlines()[:-1]]
+        if path.stem != "cells":  # the torn last line of cells.jsonl is not a record
+            lines[path.stem].append(json.loads(path.read_text().splitlines()[-1]))
+    store = Store(directory)
+    assert [str(item) for item in store.set_aside] == [
+        "cells.jsonl line 11: torn last line (a write cut short)"
+    ]
+    for table in ("cells", "tunings", "studies", "failures"):
+        records = [r for r in lines[table] if r["record"] not in ("header", "run")]
+        assert list(store.tables[table].records.values()) == records  # keys and all, exactly
+        for path in V1.iterdir():
+            assert (directory / path.name).read_bytes() == path.read_bytes()  # untouched
+    runs = [r for r in lines["cells"] if r["record"] == "run"]
+    assert store.runs == {run["run"]: run for run in runs}
+    assert store.runs["00000000000000a1"]["command"] == "diffbench run t --methods m,m"
+    frame = store.cells_frame("t").query("order == 1 and origin == 'preset'")
+    expected = [1e-300, 0.1 + 0.2, -0.0, math.nan, math.inf, 5e-324]
+    assert all(_same(a, b) for a, b in zip(frame["value"], expected, strict=True))
+    assert set(frame["git_rev"]) == {runs[0]["git_rev"]}
+    (tuned,) = [r for r in store.cells.records.values() if "same_as" in r]
+    assert tuned["same_as"] == next(iter(store.cells.records))
+    assert _same(store.tunings_frame()["loss"].iloc[0], -0.0)
+    assert store.find_study_rows("s", "item", ["a", "b"]) == [{"ratio": 1e-300, "name": "x"}]
+    assert list(store.failed_cells("t")["reason"]) == ["timeout after 1 s"]
+    versions = store.content_version(("cells", "tunings", "studies", "failures"))
+    store.close()
+    again = Store(directory)  # imported once: nothing is read or added again
+    assert again.set_aside == [] and len(again.cells.records) == 7 and len(again.runs) == 2
+    assert again.content_version(("cells", "tunings", "studies", "failures")) == versions
 
 
 def test_an_old_store_of_another_version_or_a_foreign_file_is_refused_untouched(tmp_path):
