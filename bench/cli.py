@@ -559,8 +559,7 @@ def _open_store(out: Path) -> Store:
 def _warn_set_aside(items) -> None:
     for item in items:
         print(
-            f"diffbench: warning: set aside {item} (kept in "
-            f"{item.path.with_name(item.path.stem + '.quarantine.jsonl')})",
+            f"diffbench: warning: not imported {item} (the file is left as it is)",
             file=sys.stderr,
         )
 
@@ -931,7 +930,6 @@ def _cmd_recommend_check(args) -> None:
         )
     # each finished scenario is one record of the store: a stopped run resumes where it stopped
     store = _open_store(args.out)
-    _warn_set_aside(store.studies.set_aside)
     key = ",".join(names)
     stored = {name: store.find_study_rows(VALIDATION, name, names) for name in scenarios}
     todo = [name for name, found in stored.items() if found is None]

@@ -1,7 +1,6 @@
 """Runs on Dask (the optional extra): the same numbers as a serial run, a killed client that
 resumes, a running scheduler by address."""
 
-import json
 import signal
 import subprocess
 import time
@@ -17,7 +16,7 @@ from diffbench.bench.core.store import Store
 
 distributed = pytest.importorskip("dask.distributed")
 
-from tests.bench.test_runner import CLI, ENV, RUN, _cells, _values, _wait_for_cells  # noqa: E402
+from tests.bench.test_runner import CLI, ENV, RUN, _cells, _rows, _values, _wait_for_cells  # noqa: E402
 
 IN_PROCESS = DaskWorkers(workers=2, processes=False)  # threads of this process: fast to start
 
@@ -70,12 +69,8 @@ def test_the_cli_runs_on_a_scheduler_given_by_address(tmp_path):
     assert main([*command, "--out", str(tmp_path / "s")]) == 0
     on_dask = (tmp_path / "d" / "paper-signal" / "rmse.csv").read_text()
     assert on_dask == (tmp_path / "s" / "paper-signal" / "rmse.csv").read_text()
-    runs = [
-        json.loads(line)
-        for line in (tmp_path / "d" / "store" / "cells.jsonl").open()
-        if '"record":"run"' in line
-    ]
-    assert f"--scheduler {address}" in runs[0]["command"]
+    (run,) = Store(tmp_path / "d" / "store").runs.values()
+    assert f"--scheduler {address}" in run["command"]
 
 
 def test_a_scheduler_that_does_not_answer_is_a_usage_error(tmp_path, capsys, monkeypatch):
@@ -111,7 +106,7 @@ def test_killing_the_client_mid_run_loses_nothing_and_the_rerun_completes(tmp_pa
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
     )
-    _wait_for_cells(out / "store" / "cells.jsonl", 4, process)
+    _wait_for_cells(out / "store", 4, process)
     process.send_signal(signal.SIGKILL)
     process.communicate(timeout=60)
     stored = len(Store(out / "store").cells.records)
@@ -121,6 +116,5 @@ def test_killing_the_client_mid_run_loses_nothing_and_the_rerun_completes(tmp_pa
     assert main([*RUN, "--out", str(tmp_path / "full")]) == 0
     full = (tmp_path / "full" / "paper-signal" / "rmse.csv").read_text()
     assert (out / "paper-signal" / "rmse.csv").read_text() == full
-    lines = (out / "store" / "cells.jsonl").read_text().splitlines()
-    keys = [json.loads(line)["key"] for line in lines if '"record":"cell"' in line]
+    keys = _rows(out / "store", "SELECT key FROM cells")
     assert len(keys) == len(set(keys)) == 90

@@ -1,8 +1,10 @@
 """The runner and its store: bit-identical results, resumption, concurrent writers, no orphans."""
 
+import contextlib
 import json
 import os
 import signal
+import sqlite3
 import subprocess
 import sys
 import time
@@ -14,7 +16,7 @@ import pytest
 from diffbench.bench import runner
 from diffbench.bench.core import store as store_module
 from diffbench.bench.core.roles import Role
-from diffbench.bench.core.store import Store
+from diffbench.bench.core.store import STORE_FILE, Store
 from diffbench.bench.report import tables
 from diffbench.bench.tasks import available_tasks, get_task
 
@@ -246,10 +248,17 @@ def _alive(pid: int) -> bool:
     return "State:\tZ" not in status
 
 
-def _wait_for_cells(path: Path, count: int, process) -> None:
+def _rows(directory: Path, sql: str) -> list[tuple]:
+    """The rows of ``sql`` on the store in ``directory`` (read as it is on disk)."""
+    with contextlib.closing(sqlite3.connect(directory / STORE_FILE)) as connection:
+        return connection.execute(sql).fetchall()
+
+
+def _wait_for_cells(directory: Path, count: int, process) -> None:
+    """Wait until the store in ``directory`` holds ``count`` cells."""
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline:
-        if path.exists() and path.read_text().count('"record":"cell"') >= count:
+        if (directory / STORE_FILE).exists() and len(Store(directory).cells.records) >= count:
             return
         if process.poll() is not None:
             raise AssertionError("the run ended before it could be interrupted")
@@ -281,7 +290,7 @@ def test_stopping_a_jobs_run_leaves_no_worker_and_the_rerun_completes(tmp_path, 
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
     )
-    _wait_for_cells(out / "store" / "cells.jsonl", 4, process)
+    _wait_for_cells(out / "store", 4, process)
     workers = _children(process.pid)
     assert len(workers) >= 2
     process.send_signal(stop)
@@ -326,8 +335,7 @@ def test_two_concurrent_runs_on_one_store_store_each_cell_once(tmp_path):
     ]
     outputs = [run.communicate(timeout=300) for run in runs]
     assert [run.returncode for run in runs] == [0, 0], outputs
-    lines = (tmp_path / "store" / "cells.jsonl").read_text().splitlines()
-    keys = [json.loads(line)["key"] for line in lines if '"record":"cell"' in line]
+    keys = _rows(tmp_path / "store", "SELECT key FROM cells")
     assert len(keys) == len(set(keys)) == 30
     table = (tmp_path / "paper-signal" / "rmse.csv").read_text()
     assert table.count("\n") == 4 and all(",10\n" in row + "\n" for row in table.splitlines()[1:])

@@ -50,16 +50,21 @@ def test_a_report_that_fails_leaves_no_record_of_success(tmp_path):
     assert len(calls) == 2
 
 
-def test_the_key_follows_options_and_the_bytes_of_the_files_read(tmp_path):
-    store = tmp_path / "cells.jsonl"
-    store.write_text('{"row": 1}\n')
-    key = uptodate.inputs_key({"report": "x"}, [store])
-    assert uptodate.inputs_key({"report": "x"}, [store]) == key
-    assert uptodate.inputs_key({"report": "y"}, [store]) != key
-    with store.open("a") as handle:
-        handle.write('{"row": 2}\n')
-    assert uptodate.inputs_key({"report": "x"}, [store]) != key
-    assert uptodate.file_digest(tmp_path / "missing") == "absent"
+def test_the_key_follows_options_and_the_content_version_of_the_store(tmp_path):
+    from diffbench.bench.core.roles import Role
+    from diffbench.bench.core.store import Store
+
+    store = Store(tmp_path / "store")
+    key = uptodate.inputs_key({"report": "x"}, store.content_version())
+    assert uptodate.inputs_key({"report": "x"}, store.content_version()) == key
+    assert uptodate.inputs_key({"report": "y"}, store.content_version()) != key
+    role = Role.of_preset("paper-signal", "paper").as_dict()
+    cell = dict(task="t", method="m", params={}, seed=0, role=role, scores=[], elapsed_s=0.0)
+    assert store.add_cell(**cell)
+    added = uptodate.inputs_key({"report": "x"}, store.content_version())
+    assert added != key
+    assert not store.add_cell(**cell)  # refused: the content is the same
+    assert uptodate.inputs_key({"report": "x"}, Store(store.directory).content_version()) == added
     assert uptodate.code_fingerprint().split(";")[0] == uptodate._source_digest()
 
 
