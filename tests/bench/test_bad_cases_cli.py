@@ -2,9 +2,11 @@
 one clear line and a non-zero exit (2 for what the user must fix), or a clear warning and a
 correct result, and nothing stored lost."""
 
+import contextlib
 import json
 import os
 import resource
+import sqlite3
 import subprocess
 import sys
 import textwrap
@@ -15,7 +17,7 @@ import pandas as pd
 import pytest
 
 from diffbench.bench.core import tuning
-from diffbench.bench.core.store import Store
+from diffbench.bench.core.store import STORE_FILE, Store
 from diffbench.bench.tasks import get_task
 
 PLUGIN = textwrap.dedent(
@@ -190,7 +192,7 @@ def test_seeds_and_counts_are_bounded(argv, message, tmp_path):
 
 
 # 3 -----------------------------------------------------------------------------------------
-def test_a_torn_line_in_recommend_checks_rows_is_set_aside_and_the_run_resumes(tmp_path):
+def test_a_torn_line_in_an_old_stores_rows_is_not_imported_and_the_run_resumes(tmp_path):
     argv = [
         "recommend-check",
         "--scenarios",
@@ -204,13 +206,18 @@ def test_a_torn_line_in_recommend_checks_rows_is_set_aside_and_the_run_resumes(t
     assert first.returncode == 0, first.stderr
     assert "grid-gaussian-0.2-10ms: " in first.stdout
     table = (tmp_path / "recommend-validation" / "validation.csv").read_text()
-    rows = tmp_path / "store" / "studies.jsonl"
-    with rows.open("a") as stream:
+    # the same rows in the JSON Lines store of an earlier diffbench, killed mid-line
+    (tmp_path / "store").rename(tmp_path / "new")
+    (record,) = Store(tmp_path / "new").studies.records.values()
+    header = {"record": "header", "format": "diffbench-store", "kind": "study", "version": 1}
+    (tmp_path / "store").mkdir()
+    with (tmp_path / "store" / "studies.jsonl").open("w") as stream:
+        stream.write(json.dumps(header) + "\n" + json.dumps(record) + "\n")
         stream.write('{"key":"[\\"recommend-validation\\",\\"grid-gau')  # a killed writer's
     again = _diffbench(*argv)
     assert again.returncode == 0, again.stderr
     assert "grid-gaussian-0.2-10ms: " not in again.stdout  # nothing recomputed
-    assert "set aside studies.jsonl line" in again.stderr and "torn last line" in again.stderr
+    assert "not imported studies.jsonl line 3: torn last line" in again.stderr
     assert (tmp_path / "recommend-validation" / "validation.csv").read_text() == table
     stored = Store(tmp_path / "store").studies.records
     assert [record["item"] for record in stored.values()] == ["grid-gaussian-0.2-10ms"]
@@ -370,7 +377,8 @@ def test_a_full_disk_on_the_output_is_one_line(argv):
 
 
 def test_the_file_size_limit_during_a_run_is_one_line_and_the_run_resumes(tmp_path):
-    """8 kB holds the header and a few cells of 1.3 kB: the limit falls inside the run."""
+    """128 kB holds the empty database (about 50 kB) and a few cells: the limit falls inside
+    the run (the write-ahead log reaches it)."""
     argv = [
         "run",
         "paper-signal",
@@ -384,18 +392,16 @@ def test_the_file_size_limit_during_a_run_is_one_line_and_the_run_resumes(tmp_pa
     ]
 
     def limited():
-        resource.setrlimit(resource.RLIMIT_FSIZE, (8192, 8192))
+        resource.setrlimit(resource.RLIMIT_FSIZE, (131072, 131072))
 
     result = _diffbench(*argv, preexec_fn=limited)
-    cells = tmp_path / "store" / "cells.jsonl"
-    _one_error_line(result, f"File too large: {cells}")
-    kept = [json.loads(line) for line in cells.read_bytes().split(b"\n")[:-1]]
-    kept = {r["key"] for r in kept if r.get("record") == "cell"}
+    _one_error_line(result, "File too large: the file size limit (ulimit -f) is 131072 bytes")
+    assert result.stderr.strip().endswith(str(tmp_path / "store" / STORE_FILE))
+    kept = set(Store(tmp_path / "store").cells.records)
     assert 1 <= len(kept) < 6
     again = _diffbench(*argv)
     assert again.returncode == 0, again.stderr
     assert f"{6 - len(kept)} cells computed, {len(kept)} already stored" in again.stdout
-    assert "torn last line" in again.stderr
     store = Store(tmp_path / "store")
     assert len(store.cells.records) == 6 and kept <= set(store.cells.records)
 
@@ -417,6 +423,24 @@ def test_a_store_of_another_format_version_is_one_line(tmp_path):
         "--out directory",
     )
     assert cells.read_text() == header
+
+
+def test_a_database_of_another_store_version_is_one_line_and_left_as_it_is(tmp_path):
+    Store(tmp_path / "store").close()
+    path = tmp_path / "store" / STORE_FILE
+    with contextlib.closing(sqlite3.connect(path)) as connection, connection:
+        connection.execute("UPDATE meta SET value = '3' WHERE name = 'version'")
+    data = path.read_bytes()
+    result = _diffbench(
+        "run", "paper-signal", "--seeds", "1", "--methods", "butterworth", "--out", tmp_path
+    )
+    _one_error_line(
+        result,
+        f"{path} was written by another diffbench store version: it says version 3, this "
+        "diffbench reads version 2 only; read it with the diffbench that wrote it (pip install "
+        "-U diffbench), or give another --out directory",
+    )
+    assert path.read_bytes() == data
 
 
 def test_a_plugin_method_that_fails_while_tuned_is_one_line(tmp_path, plugin):
