@@ -10,6 +10,7 @@ import pytest
 
 from diffbench import signals
 from diffbench.bench.cli import main
+from diffbench.bench.core.store import Store
 from diffbench.bench.studies.user_data import read_record
 
 DT = 0.002
@@ -129,10 +130,10 @@ def test_recommend_check_scores_the_choice_against_the_truth_and_resumes(tmp_pat
     assert set(table["pynumdiff_choice"]) <= {"spectral", "butterworth"}
     np.testing.assert_allclose(table["pynumdiff_ratio"], table["pynumdiff_rmse"] / best)
     assert (table["pynumdiff_ratio"] >= 1.0).all()
-    rows = (tmp_path / "store" / "studies.jsonl").read_text()
+    version = Store(tmp_path / "store").content_version(("studies",))
     assert "median" in (directory / "validation.md").read_text()
     capsys.readouterr()
     assert main(argv) == 0
     assert "grid-gaussian-0.2-10ms:" not in capsys.readouterr().out  # nothing recomputed
-    assert (tmp_path / "store" / "studies.jsonl").read_text() == rows
+    assert Store(tmp_path / "store").content_version(("studies",)) == version  # nothing added
     assert main([*argv[:2], "no-such-scenario"]) == 2

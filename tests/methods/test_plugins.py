@@ -1,7 +1,6 @@
 """Methods from outside diffbench: an installed entry point, a module named by --plugin or
 $DIFFBENCH_PLUGINS. Each plugin runs in a fresh process (the registry is per process)."""
 
-import json
 import os
 import shutil
 import subprocess
@@ -68,9 +67,10 @@ def test_an_installed_entry_point_is_listed_run_and_stored_with_its_version(tmp_
     assert ran.returncode == 0, ran.stderr
     table = (out / "paper-signal" / "rmse.md").read_text()
     assert f"| {NAME} " in table and "preset (example)" in table and "window_s=0.04" in table
-    runs = [json.loads(line) for line in (out / "store" / "cells.jsonl").open()]
-    versions = [r["versions"] for r in runs if r.get("record") == "run"]
-    assert "plugin=diffbench_example_plugin (diffbench-example-plugin 0.1.0)" in versions[0]
+    from diffbench.bench.core.store import Store
+
+    (run,) = Store(out / "store").runs.values()
+    assert "plugin=diffbench_example_plugin (diffbench-example-plugin 0.1.0)" in run["versions"]
     # without the plugin the stored cells are still read, and the method is unknown to a run
     again = _diffbench(*args)
     assert again.returncode == 2
