@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Container, Iterable, Mapping
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -422,3 +422,119 @@ def _read_old_file(path: Path, kind: str, validate: Callable[[dict], None]) -> O
             "move it away or choose another --out directory"
         )
     return result
+
+
+# --- the records as tables ---------------------------------------------------------------
+_FIXED = (
+    "task",
+    "method",
+    "params",
+    "seed",
+    "role",
+    *ROLE_COLUMNS,
+    "run",
+    "git_rev",
+    "finished_utc",
+    "elapsed_s",
+    "package",
+)
+FRAME_COLUMNS = (*_FIXED, "order", "region", "metric", "value")
+
+
+def cells_frame(
+    cells: Iterable[dict], runs: Mapping[str, dict], task: str | Iterable[str] | None = None
+) -> pd.DataFrame:
+    """Tidy rows (one per cell and score) of the given task(s), with role and provenance
+    columns: task, method, params (canonical JSON), seed, role (canonical JSON), the role
+    fields, order, region, metric, value, run, git_rev, finished_utc, elapsed_s, package (the
+    distribution and version that computed the cell; "unknown" in older records)."""
+    wanted = None if task is None else ({task} if isinstance(task, str) else set(task))
+    columns: dict[str, list] = {name: [] for name in FRAME_COLUMNS}
+    for record in cells:
+        if wanted is not None and record["task"] not in wanted:
+            continue
+        params, role = canonical(record["params"]), canonical(record["role"])
+        run = runs.get(record["run"], {})
+        fixed = (
+            record["task"],
+            record["method"],
+            params,
+            record["seed"],
+            role,
+            *(record["role"][f] for f in ROLE_FIELDS),
+            *(record["role"].get(f, d) for f, d in OPTIONAL_ROLE_FIELDS.items()),
+            record["run"],
+            run.get("git_rev", "unknown"),
+            record["finished_utc"],
+            record["elapsed_s"],
+            record.get("package", "unknown"),
+        )
+        for order, region, metric, value in record["scores"]:
+            for name, item in zip(_FIXED, fixed, strict=True):
+                columns[name].append(item)
+            columns["order"].append(order)
+            columns["region"].append(region)
+            columns["metric"].append(metric)
+            columns["value"].append(float("nan") if value is None else float(value))
+    frame = pd.DataFrame(columns)
+    for name in ("tuned_order", "tuning_seed"):
+        frame[name] = frame[name].astype("Int64")
+    frame["tuning_seeds"] = frame["tuning_seeds"].astype(int)
+    frame["cutoff_hz"] = frame["cutoff_hz"].astype(float)
+    return frame
+
+
+def tunings_frame(tunings: Iterable[dict]) -> pd.DataFrame:
+    """One row per stored tuning: its key fields, tuning_seeds, region, params
+    (canonical JSON), loss, evaluations, seconds."""
+    records = [
+        {
+            **{n: r[n] for n in TUNING_KEY_FIELDS},
+            **{n: r.get(n, d) for n, d in OPTIONAL_TUNING_FIELDS.items()},
+            "params": canonical(r["params"]),
+            "loss": r["loss"],
+            "evaluations": r["evaluations"],
+            "seconds": r["seconds"],
+        }
+        for r in tunings
+    ]
+    return pd.DataFrame(
+        records,
+        columns=[
+            *TUNING_KEY_FIELDS,
+            *OPTIONAL_TUNING_FIELDS,
+            "params",
+            "loss",
+            "evaluations",
+            "seconds",
+        ],
+    )
+
+
+def failed_cells(
+    failures: Iterable[dict], finished: Container[str], task: str | Iterable[str] | None = None
+) -> pd.DataFrame:
+    """The cells of ``task`` whose last recorded attempt failed and that no run has
+    finished since: task, method, params (canonical JSON), seed, role (canonical JSON),
+    reason, package, finished_utc (of the failed attempt)."""
+    columns = ["task", "method", "params", "seed", "role", "reason", "package", "finished_utc"]
+    wanted = None if task is None else ({task} if isinstance(task, str) else set(task))
+    last: dict[str, dict] = {}
+    for record in failures:  # in the order they were written
+        if record["cell"] not in finished:
+            if wanted is None or record["task"] in wanted:
+                last[record["cell"]] = record
+    rows = [
+        [
+            r["task"],
+            r["method"],
+            canonical(r["params"]),
+            r["seed"],
+            canonical(r["role"]),
+            r["reason"],
+            r["package"],
+            r["finished_utc"],
+        ]
+        for r in last.values()
+    ]
+    return pd.DataFrame(rows, columns=columns)

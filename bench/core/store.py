@@ -52,10 +52,7 @@ from diffbench.bench.core.records import (
     CHECKS,
     FORMAT,
     OLD_FILES,
-    OPTIONAL_ROLE_FIELDS,
-    OPTIONAL_TUNING_FIELDS,
     ROLE_COLUMNS,
-    ROLE_FIELDS,
     SCHEMAS,
     TUNING_KEY_FIELDS,
     OldFile,
@@ -65,13 +62,16 @@ from diffbench.bench.core.records import (
     as_number,
     canonical,
     cell_key,
+    cells_frame,
     computation_key,
     expand_params,
+    failed_cells,
     optional_fields,
     quoted,
     read_old_files,
     study_key,
     tuning_key,
+    tunings_frame,
     utc_now,
 )
 
@@ -153,20 +153,6 @@ class RecordTable:
             f"INSERT OR IGNORE INTO {schema.table} ({columns}) "
             f"VALUES ({', '.join('?' for _ in schema.columns)}, ?)"
         )
-
-    @property
-    def path(self) -> Path:
-        """The database file."""
-        return self._store.path
-
-    @property
-    def runs(self) -> dict[str, dict]:
-        """Every run of the store (its provenance), by run id."""
-        return self._store.runs
-
-    set_aside: tuple[SetAside, ...] = ()
-    """Empty: a table holds only valid records (the lines an import left out are in
-    :attr:`Store.set_aside`)."""
 
     def refresh(self) -> None:
         """Read the records other writers stored since the last read."""
@@ -446,29 +432,8 @@ class Store:
 
     def failed_cells(self, task: str | Iterable[str] | None = None) -> pd.DataFrame:
         """The cells of ``task`` whose last recorded attempt failed and that no run has
-        finished since: task, method, params (canonical JSON), seed, role (canonical JSON),
-        reason, package, finished_utc (of the failed attempt)."""
-        columns = ["task", "method", "params", "seed", "role", "reason", "package", "finished_utc"]
-        wanted = None if task is None else ({task} if isinstance(task, str) else set(task))
-        last: dict[str, dict] = {}
-        for record in self.failures.records.values():  # in the order they were written
-            if record["cell"] not in self.cells.records:
-                if wanted is None or record["task"] in wanted:
-                    last[record["cell"]] = record
-        rows = [
-            [
-                r["task"],
-                r["method"],
-                canonical(r["params"]),
-                r["seed"],
-                canonical(r["role"]),
-                r["reason"],
-                r["package"],
-                r["finished_utc"],
-            ]
-            for r in last.values()
-        ]
-        return pd.DataFrame(rows, columns=columns)
+        finished since (:func:`bench.core.records.failed_cells`)."""
+        return failed_cells(self.failures.records.values(), self.cells.records, task)
 
     def find_study_rows(self, study: str, item: str, setting: Any) -> list[dict] | None:
         """The stored rows of ``study`` for ``item`` under ``setting``, None if not stored."""
@@ -544,7 +509,7 @@ class Store:
             return {}
         runs = {
             run
-            for run, meta in self.cells.runs.items()
+            for run, meta in self.runs.items()
             if meta.get("git_rev") == current["git_rev"]
             and meta.get("versions") == current["versions"]
         }
@@ -580,91 +545,18 @@ class Store:
         return self.tunings.append(record)
 
     def cells_frame(self, task: str | Iterable[str] | None = None) -> pd.DataFrame:
-        """Tidy rows (one per cell and score) of the given task(s), with role and provenance
-        columns: task, method, params (canonical JSON), seed, role (canonical JSON), the role
-        fields, order, region, metric, value, run, git_rev, finished_utc, elapsed_s, package (the
-        distribution and version that computed the cell; "unknown" in older records)."""
-        wanted = None if task is None else ({task} if isinstance(task, str) else set(task))
-        columns: dict[str, list] = {name: [] for name in FRAME_COLUMNS}
-        for record in self.cells.records.values():
-            if wanted is not None and record["task"] not in wanted:
-                continue
-            params, role = canonical(record["params"]), canonical(record["role"])
-            run = self.cells.runs.get(record["run"], {})
-            fixed = (
-                record["task"],
-                record["method"],
-                params,
-                record["seed"],
-                role,
-                *(record["role"][f] for f in ROLE_FIELDS),
-                *(record["role"].get(f, d) for f, d in OPTIONAL_ROLE_FIELDS.items()),
-                record["run"],
-                run.get("git_rev", "unknown"),
-                record["finished_utc"],
-                record["elapsed_s"],
-                record.get("package", "unknown"),
-            )
-            for order, region, metric, value in record["scores"]:
-                for name, item in zip(_FIXED, fixed, strict=True):
-                    columns[name].append(item)
-                columns["order"].append(order)
-                columns["region"].append(region)
-                columns["metric"].append(metric)
-                columns["value"].append(float("nan") if value is None else float(value))
-        frame = pd.DataFrame(columns)
-        for name in ("tuned_order", "tuning_seed"):
-            frame[name] = frame[name].astype("Int64")
-        frame["tuning_seeds"] = frame["tuning_seeds"].astype(int)
-        frame["cutoff_hz"] = frame["cutoff_hz"].astype(float)
-        return frame
+        """Tidy rows (one per cell and score) of the given task(s) with role and provenance
+        columns (:func:`bench.core.records.cells_frame`)."""
+        return cells_frame(self.cells.records.values(), self.runs, task)
 
     def tunings_frame(self) -> pd.DataFrame:
-        """One row per stored tuning: its key fields, tuning_seeds, region, params
-        (canonical JSON), loss, evaluations, seconds."""
-        records = [
-            {
-                **{n: r[n] for n in TUNING_KEY_FIELDS},
-                **{n: r.get(n, d) for n, d in OPTIONAL_TUNING_FIELDS.items()},
-                "params": canonical(r["params"]),
-                "loss": r["loss"],
-                "evaluations": r["evaluations"],
-                "seconds": r["seconds"],
-            }
-            for r in self.tunings.records.values()
-        ]
-        return pd.DataFrame(
-            records,
-            columns=[
-                *TUNING_KEY_FIELDS,
-                *OPTIONAL_TUNING_FIELDS,
-                "params",
-                "loss",
-                "evaluations",
-                "seconds",
-            ],
-        )
+        """One row per stored tuning (:func:`bench.core.records.tunings_frame`)."""
+        return tunings_frame(self.tunings.records.values())
 
     def revisions(self) -> set[str]:
         """Git revisions of the code that computed the stored cells."""
         used = {record["run"] for record in self.cells.records.values()}
-        return {self.cells.runs.get(run, {}).get("git_rev", "unknown") for run in used}
-
-
-_FIXED = (
-    "task",
-    "method",
-    "params",
-    "seed",
-    "role",
-    *ROLE_COLUMNS,
-    "run",
-    "git_rev",
-    "finished_utc",
-    "elapsed_s",
-    "package",
-)
-FRAME_COLUMNS = (*_FIXED, "order", "region", "metric", "value")
+        return {self.runs.get(run, {}).get("git_rev", "unknown") for run in used}
 
 
 # --- errors --------------------------------------------------------------------------------
