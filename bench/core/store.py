@@ -171,6 +171,7 @@ class RecordTable:
         with self._store._transaction() as connection:
             self._store._add_run(connection, CURRENT_RUN.record())
             written = connection.execute(self._insert, [*self.schema.row(record), record["run"]])
+        self._store._run_written = True
         if written.rowcount != 1:
             self.refresh()  # the other writer's record
             return False
@@ -325,8 +326,7 @@ class Store:
         connection.execute(
             f"INSERT OR IGNORE INTO runs ({', '.join(_RUN_COLUMNS)}) VALUES (?, ?, ?, ?, ?)",
             [run.get(name) for name in _RUN_COLUMNS],
-        )
-        self._run_written = self._run_written or run["run"] == CURRENT_RUN.run_id
+        )  # noted as written once committed (a rolled-back run row is written again)
 
     def _read_runs(self) -> None:
         rows = self._connection().execute(
