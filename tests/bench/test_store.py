@@ -273,6 +273,32 @@ def test_a_writer_killed_mid_run_loses_no_stored_cell(tmp_path):
     assert _add(store, 100000 + 1)
 
 
+def test_a_rolled_back_run_row_is_written_again_with_the_next_record(tmp_path, monkeypatch):
+    """The first record of a run writes the run's provenance row in the same transaction; if
+    that transaction rolls back (here: the record's row fails to build), the next record must
+    write the run row again, or its cells would name a run the store does not hold."""
+    store = Store(tmp_path / "store")
+    schema = store.cells.schema
+
+    class FailingRow:  # the table's schema, but building the record's row fails
+        def __getattr__(self, name):
+            return getattr(schema, name)
+
+        def row(self, record):
+            raise RuntimeError("the record's row fails after the run row was inserted")
+
+    monkeypatch.setattr(store.cells, "schema", FailingRow())
+    with pytest.raises(RuntimeError, match="fails after the run row"):
+        _add(store, 0)
+    assert _rows(store.path, "SELECT run FROM runs") == []  # rolled back with the record
+    monkeypatch.setattr(store.cells, "schema", schema)
+    assert _add(store, 1)
+    (run,) = _rows(store.path, "SELECT DISTINCT run FROM cells")
+    assert _rows(store.path, "SELECT run FROM runs") == [run]
+    ((git_rev,),) = _rows(store.path, "SELECT git_rev FROM runs")
+    assert set(Store(tmp_path / "store").cells_frame("t")["git_rev"]) == {git_rev}
+
+
 def test_the_content_version_changes_with_every_added_record_only(tmp_path):
     store = Store(tmp_path / "store")
     empty = store.content_version()
