@@ -48,7 +48,7 @@ bench-suite:
 	$(BIN)/diffbench tune native paper-signal --criteria oracle --orders 1,2 --seeds $(SEEDS) \
 	  --jobs 2 --out $(BENCH_OUT)
 	$(BIN)/diffbench run jacobi-influence --seeds $(SEEDS) --out $(BENCH_OUT)
-	$(BIN)/diffbench paper-figures --methods native,$(GRID_PEERS) --jobs 2 --out $(BENCH_OUT)
+	$(BIN)/diffbench run paper-figures --methods native,$(GRID_PEERS) --jobs 2 --out $(BENCH_OUT)
 	$(BIN)/diffbench run robot-sim --methods native,$(GRID_PEERS) --seeds $(SEEDS) --jobs 2 \
 	  --out $(BENCH_OUT)
 
@@ -69,19 +69,17 @@ studies: $(STAMP)
 	  --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal-4937ms --orders 1,2 \
 	  --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --region whole --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench paper-figures --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench run paper-figures --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench run robot-sim --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench run identify-dfki --methods native,$(GRID_PEERS) --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench run online-paper-signal --seeds 5 --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench run online-2r-loop --seeds 3 --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench run grid --methods native,$(GRID_PEERS),causal --seeds 10 --jobs 2 \
 	  --out $(STUDIES)
-	$(BIN)/diffbench recommend-check --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench run recommend-check --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench run limit --methods native,$(GRID_PEERS),causal --seeds 20 --jobs 2 \
 	  --out $(STUDIES)
-	for task in limit-matern52-0.01 limit-matern72-0.01 limit-iwn2-0.01 limit-iwn3-0.01 \
-	  limit-band20-0.01; do \
-	  $(BIN)/diffbench pareto $$task --methods native --jobs 2 --out $(STUDIES) || exit 1; done
+	$(BIN)/diffbench run pareto --methods native --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench export pendulum-500hz-jitter $(STUDIES)/recommend-example/pendulum.csv
 	$(BIN)/diffbench recommend $(STUDIES)/recommend-example/pendulum.csv --time t --column x \
 	  --dt 0.002 --methods native,$(GRID_PEERS) --out $(STUDIES)/recommend-example

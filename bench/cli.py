@@ -26,8 +26,17 @@ from diffbench.bench.core import executor, tuning, uptodate
 from diffbench.bench.core.executor import Terminated, WorkerDied, terminate_on_sigterm
 from diffbench.bench.core.provenance import provenance
 from diffbench.bench.core.store import Store, StoreError, set_command, store_exists
-from diffbench.bench.studies import paper, pareto, recommend, timing, user_data
-from diffbench.bench.tasks import LimitStudy, available_tasks, dfki_task, get_task
+from diffbench.bench.studies import recommend, user_data
+from diffbench.bench.tasks import (
+    ItemStudy,
+    LimitStudy,
+    ParetoStudy,
+    RecommendCheck,
+    TimingStudy,
+    available_tasks,
+    dfki_task,
+    get_task,
+)
 from diffbench.signals.dfki import load_pendulum_model
 
 EXIT_INTERNAL = 1
@@ -565,7 +574,7 @@ def _warn_set_aside(items) -> None:
 
 
 def _progress(args, unit: str = "cell"):
-    if args.no_progress:
+    if getattr(args, "no_progress", True):
         return None
 
     def wrap(items, total):
@@ -592,8 +601,25 @@ def _run_cells(cells, store: Store, args) -> runner.RunSummary:
         raise SystemExit(code) from None
 
 
-def _say(summary: runner.RunSummary) -> None:
-    text = f"{summary.computed} cells computed, {summary.skipped} already stored"
+def _run_items(study, items, store: Store, args) -> dict:
+    try:
+        rows, summary = runner.run_items(
+            study, items, store, progress=_progress(args, "item"), jobs=getattr(args, "jobs", 1)
+        )
+    except (KeyboardInterrupt, Terminated) as stop:
+        print(
+            f"diffbench: interrupted; the finished items of {study.name} are stored in "
+            f"{store.directory}; run the same command to resume",
+            file=sys.stderr,
+        )
+        code = EXIT_INTERRUPTED if isinstance(stop, KeyboardInterrupt) else EXIT_TERMINATED
+        raise SystemExit(code) from None
+    _say(summary, "items")
+    return rows
+
+
+def _say(summary: runner.RunSummary, unit: str = "cells") -> None:
+    text = f"{summary.computed} {unit} computed, {summary.skipped} already stored"
     if summary.reused:
         text += f", {summary.reused} the same computation as another cell (its scores taken)"
     if summary.stored_by_others:
@@ -713,7 +739,14 @@ def _cmd_run(args) -> None:
 
 def _run_task(task, args) -> None:
     """Any task, a study too: its tunings (stored, reused), then its cells, then its report."""
-    names = _method_names(args.methods)
+    names = _method_names(getattr(args, "methods", None))
+    if isinstance(task, ItemStudy):
+        with user_input():
+            items = task.items(names, task.seeds(getattr(args, "seeds", None)))
+        rows = _run_items(task, items, _open_store(args.out), args)
+        for path in runner.report_items(task, rows, args.out):
+            print(path)
+        return
     with user_input():
         seeds = task.seeds(args.seeds)
         jobs_list = task.tuning_jobs(names, args.orders)
@@ -840,40 +873,15 @@ def _cmd_limit(args) -> None:
 
 
 def _cmd_pareto(args) -> None:
-
-    task = _task(args.task)
+    """``diffbench pareto TASK``: ``diffbench run pareto`` on that one record."""
     with user_input():
-        realisation = task.tuning_data(tuning.TUNING_SEED)
-    names = _method_names(args.methods) or methods.available()
-    directory = args.out / "limit"
-
-    def write() -> list[Path]:
-        work = functools.partial(pareto.pareto_front, realisation=realisation)
-        fronts = list(executor.ordered_map(work, names, args.jobs))
-        return pareto.write_pareto(fronts, task.name, directory)
-
-    key = uptodate.inputs_key({"report": "pareto", "task": task.name, "methods": names})
-    for path in uptodate.report_once(directory, key, write, part=f"pareto-{task.name}"):
-        print(path)
+        study = ParetoStudy(scenarios=(args.task,))
+    _run_task(study, args)
 
 
 def _cmd_paper_figures(args) -> None:
-
-    directory = args.out / "paper-figures"
-    directory.mkdir(parents=True, exist_ok=True)
-    names = _method_names(args.methods)
-
-    def write() -> list[Path]:
-        written = paper.write_figure1(directory, names=names)
-        written += paper.write_figure2(directory, names) + paper.write_figure3(directory)
-        written += paper.write_frequency_table(directory, names)
-        return written + paper.write_error_profile(
-            directory, args.seeds, names, args.jobs, _progress(args, "run")
-        )
-
-    key = uptodate.inputs_key({"report": "paper-figures", "methods": names, "seeds": args.seeds})
-    for path in uptodate.report_once(directory, key, write):
-        print(path)
+    """``diffbench paper-figures``: ``diffbench run paper-figures``."""
+    _run_task(_task("paper-figures"), args)
 
 
 def _cmd_export(args) -> None:
@@ -902,57 +910,23 @@ def _cmd_recommend(args) -> None:
         print(path)
 
 
-VALIDATION = "recommend-validation"
-"""The study name of ``recommend-check``'s rows in the store."""
-
-
 def _cmd_recommend_check(args) -> None:
-
-    names = _method_names(args.methods) or list(recommend.VALIDATION_METHODS)
-    scenarios = args.scenarios or [
-        name
-        for name in signals.available_scenarios()
-        if not (scenario := signals.get_scenario(name)).sampling
-        and scenario.noise.models
-        and not name.startswith("limit-")  # the random signals have their own study
-    ]
+    """``diffbench recommend-check``: ``diffbench run recommend-check``, on ``--scenarios``."""
     with user_input("--scenarios: "):
-        for name in scenarios:
-            signals.get_scenario(name)
-    directory = args.out / "recommend-validation"
-    directory.mkdir(parents=True, exist_ok=True)
-    legacy = directory / "rows.jsonl"
+        study = RecommendCheck(tuple(args.scenarios or ()))
+    legacy = args.out / study.folder / "rows.jsonl"
     if legacy.exists():
         print(
             f"diffbench: note: {legacy} (an older diffbench's) is no longer read; the rows "
             f"are kept in {args.out / 'store'}",
             file=sys.stderr,
         )
-    # each finished scenario is one record of the store: a stopped run resumes where it stopped
-    store = _open_store(args.out)
-    key = ",".join(names)
-    stored = {name: store.find_study_rows(VALIDATION, name, names) for name in scenarios}
-    todo = [name for name, found in stored.items() if found is None]
-    validate = functools.partial(recommend.validate, names=tuple(names))
-    # workers return rows, this process alone stores them, each scenario as it finishes
-    for name, found in executor.completed_map(validate, todo, args.jobs):
-        stored[name] = [{**row, "methods": key} for row in found]
-        store.add_study_rows(VALIDATION, name, names, stored[name])
-        print(f"{name}: " + ", ".join(f"{r['ratio']:.3g}" for r in stored[name]), flush=True)
-    rows = [row for name in scenarios for row in stored[name]]
-    for path in recommend.write_validation(rows, directory, names):
-        print(path)
+    _run_task(study, args)
 
 
 def _cmd_timing(args) -> None:
-
-    sizes = [size for size in timing.SIZES if size < args.largest] + [args.largest]
-    table = timing.throughput(sizes=sizes, progress=lambda line: print(line, flush=True))
-    for path in timing.write_throughput(args.out / "timing", table):
-        print(path)
-    if args.ratios:
-        for path in timing.write_ratios(args.out / "timing", timing.speed_ratios()):
-            print(path)
+    """``diffbench timing``: ``diffbench run timing`` up to ``--largest`` samples."""
+    _run_task(TimingStudy(largest_samples=args.largest, ratios=args.ratios), args)
 
 
 # --- entry point ---------------------------------------------------------------------------

@@ -16,11 +16,12 @@ import math
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from diffbench import methods
-from diffbench.bench.core import tuning
-from diffbench.bench.core.executor import CallTimeout, call_timeout, ordered_map
+from diffbench.bench.core import tuning, uptodate
+from diffbench.bench.core.executor import CallTimeout, call_timeout, completed_map, ordered_map
 from diffbench.bench.core.plan import (
     Cell,
     Entry,
@@ -29,8 +30,9 @@ from diffbench.bench.core.plan import (
     tuned_entries,
     unique,
 )
-from diffbench.bench.core.store import Store, canonical
+from diffbench.bench.core.store import Store, canonical, study_key
 from diffbench.bench.tasks import get_task
+from diffbench.bench.tasks.items import Item, ItemStudy
 from diffbench.methods._plugins import plugin_of_module
 
 MAX_SEEDS = 10_000
@@ -202,6 +204,52 @@ def run(
     )
 
 
+def compute_item(task_and_item: tuple[str, Item]) -> list[dict[str, Any]]:
+    """The rows of one item of an item study (pure computation: no I/O); the study is looked
+    up by name, so that a worker process computes it as this one would."""
+    task, item = task_and_item
+    return get_task(task).compute(item)
+
+
+def run_items(
+    study: ItemStudy,
+    items: Sequence[Item],
+    store: Store,
+    progress: Callable[[Iterable, int], Iterable] | None = None,
+    jobs: int = 1,
+) -> tuple[dict[Item, list[dict]], RunSummary]:
+    """The stored rows of every item of ``study`` (:mod:`bench.tasks.items`), computing and
+    storing those the store lacks, each as soon as it is finished (one record: whole or not at
+    all), on ``jobs`` (:func:`bench.core.executor.completed_map`); this process alone writes
+    the store. Returns ``{item: rows}`` in the order of ``items`` and what was computed."""
+    items = list(dict.fromkeys(items))
+    store.refresh()
+    name = study.record_name
+    rows = {item: store.find_study_rows(name, item.name, item.setting) for item in items}
+    todo = [item for item, found in rows.items() if found is None]
+    results = completed_map(compute_item, [(study.name, item) for item in todo], jobs)
+    computed = others = 0
+    for (_, item), found in progress(results, len(todo)) if progress else results:
+        stored = store.add_study_rows(name, item.name, item.setting, found)
+        computed += stored
+        others += not stored
+        rows[item] = store.find_study_rows(name, item.name, item.setting)
+    summary = RunSummary(len(items), len(items) - len(todo), computed, others)
+    return rows, summary
+
+
+def report_items(study: ItemStudy, rows: dict[Item, list[dict]], out: Path) -> list[Path]:
+    """The report of ``study`` from the rows of its items (:func:`run_items`), written under
+    ``out`` in its folder unless the last report there came from the same items by the same
+    code (:func:`bench.core.uptodate.report_once`: an item's stored rows never change)."""
+    keys = [study_key(study.record_name, item.name, item.setting) for item in rows]
+    key = uptodate.inputs_key({"report": study.name, "folder": study.folder, "items": keys})
+    directory = Path(out) / study.folder
+    return uptodate.report_once(
+        directory, key, lambda: study.write(rows, directory), part=study.name
+    )
+
+
 def _store(store: Store, cell: Cell, scores, elapsed: float, same_as: str | None = None) -> bool:
     return store.add_cell(
         task=cell.task,
@@ -311,7 +359,9 @@ __all__ = [
     "TuningJob",
     "canonical",
     "preset_entry",
+    "report_items",
     "run",
+    "run_items",
     "tune_all",
     "tuned_entries",
     "unique",

@@ -20,7 +20,6 @@ import numpy as np
 import pandas as pd
 
 from diffbench import methods, signals
-from diffbench.bench.core import executor
 from diffbench.bench.report import figures, tables
 from diffbench.bench.studies.frequency import cutoff_hz, ideal_response, noise_gain
 from diffbench.signals import robot2r
@@ -476,49 +475,43 @@ END_FRACTION = 0.05
 """Each end of the record, as a fraction of its samples, in the ends-versus-middle table."""
 
 
-def _squared_errors(item: tuple[str, int]) -> dict[int, np.ndarray]:
-    """Squared errors of ẋ and ẍ at every sample of method ``name`` (paper-signal preset) on
-    the paper scenario's noise seed ``seed``; ``item`` is ``(name, seed)``."""
-    name, seed = item
-    realisation = signals.get_scenario(SCENARIO).realise(seed)
-    estimate = methods.preset(name, "paper-signal")(realisation.x, realisation.dt_s)
-    return {order: (estimate[order] - realisation.truth[order]) ** 2 for order in (1, 2)}
+def squared_error_sums(name: str, seeds: int) -> dict[int, np.ndarray]:
+    r"""Sums over the noise seeds ``0..seeds-1`` (added in seed order) of the squared errors of
+    ẋ and ẍ at every sample of method ``name`` (paper-signal preset) on the paper scenario
+    (NaN where it gives no estimate): :math:`\sum_s (\hat{x}^{(n)}_{s,i} - x^{(n)}_i)^2`."""
+    scenario = signals.get_scenario(SCENARIO)
+    method = methods.preset(name, "paper-signal")
+    sums = {}
+    for seed in range(seeds):
+        realisation = scenario.realise(seed)
+        estimate = method(realisation.x, realisation.dt_s)
+        for order in (1, 2):
+            squared = (estimate[order] - realisation.truth[order]) ** 2
+            sums[order] = sums.get(order, np.zeros(len(squared))) + squared
+    return sums
 
 
-def error_profile_data(seeds: int = 20, names=None, jobs=1, progress=None) -> pd.DataFrame:
-    """RMS error over noise seeds at each sample of the paper scenario, for ẋ and ẍ of every
-    method named (default: every registered one) at its paper-signal preset.
+def error_profile_frame(sums: dict[str, dict[int, np.ndarray]], seeds: int) -> pd.DataFrame:
+    r"""RMS error over ``seeds`` noise seeds at each sample of the paper scenario, for ẋ and ẍ
+    of every method of ``sums`` (:func:`squared_error_sums` by method name, in column order).
 
-    At sample :math:`i`, :math:`e_i = \\sqrt{\\frac{1}{S}\\sum_s (\\hat{x}^{(n)}_{s,i} -
+    At sample :math:`i`, :math:`e_i = \sqrt{\frac{1}{S}\sum_s (\hat{x}^{(n)}_{s,i} -
     x^{(n)}_i)^2}` over the :math:`S` seeds (NaN where the method gives no estimate). Columns:
     ``t_s``, ``position`` (:math:`i/(N-1)`), ``interior`` and, per method,
     ``<method>_velocity_rms_error`` and ``<method>_acceleration_rms_error``.
-
-    ``jobs``: where each (method, seed) runs (:func:`diffbench.bench.core.executor.ordered_map`);
-    the sums are taken here in seed order, so the result is the same bits for any ``jobs``.
-    ``progress(iterable, total)`` wraps the results as they come (e.g. a tqdm bar).
     """
     first = signals.get_scenario(SCENARIO).realise(0)
     n = len(first.t)
     frame = {"t_s": first.t, "position": np.arange(n) / (n - 1), "interior": first.interior}
-    names = list(names or methods.available())
-    items = [(name, seed) for name in names for seed in range(seeds)]
-    results = executor.ordered_map(_squared_errors, items, jobs)
-    results = iter(progress(results, len(items)) if progress else results)
-    for name in names:
-        squares = {1: np.zeros(n), 2: np.zeros(n)}
-        for _ in range(seeds):
-            squared = next(results)
-            for order in squares:
-                squares[order] += squared[order]
+    for name, squares in sums.items():
         for order, label in ((1, "velocity"), (2, "acceleration")):
-            frame[f"{name}_{label}_rms_error"] = np.sqrt(squares[order] / seeds)
+            frame[f"{name}_{label}_rms_error"] = np.sqrt(np.asarray(squares[order]) / seeds)
     return pd.DataFrame(frame)
 
 
 def ends_table(profile: pd.DataFrame, end_fraction: float = END_FRACTION) -> pd.DataFrame:
     """Per method and derivative, the RMS error over the first and the last ``end_fraction``
-    of the record and over the middle between them (from :func:`error_profile_data`), the
+    of the record and over the middle between them (from :func:`error_profile_frame`), the
     worst end against the middle, and the fraction of the record the method estimates."""
     n = len(profile)
     k = max(1, round(end_fraction * n))
@@ -539,15 +532,14 @@ def ends_table(profile: pd.DataFrame, end_fraction: float = END_FRACTION) -> pd.
     return pd.DataFrame(records)
 
 
-def write_error_profile(
-    directory: Path, seeds: int = 20, names=None, jobs=1, progress=None
-) -> list[Path]:
-    """``error_vs_position.csv`` (:func:`error_profile_data`), ``error_vs_position.png`` drawn
-    from it (RMS error of ẋ and ẍ against position, log scale, one line per method) and
+def write_error_profile(directory: Path, profile: pd.DataFrame, seeds: int) -> list[Path]:
+    """``error_vs_position.csv`` (``profile``: :func:`error_profile_frame` over ``seeds``
+    noise seeds), ``error_vs_position.png`` drawn from it (RMS error of ẋ and ẍ against
+    position, log scale, one line per method) and
     ``ends.md``/``.csv`` (:func:`ends_table`)."""
 
     csv = directory / "error_vs_position.csv"
-    error_profile_data(seeds, names, jobs, progress).to_csv(csv, index=False)
+    profile.to_csv(csv, index=False)
     data = pd.read_csv(csv)
     names = _methods_in(data.columns, "_velocity_rms_error")
     styles = figures.method_styles(names)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -15,6 +16,16 @@ import pandas as pd
 from diffbench import methods
 from diffbench.bench.core import tuning
 from diffbench.bench.report import figures, tables
+
+SCENARIOS = (
+    "limit-matern52-0.01",
+    "limit-matern72-0.01",
+    "limit-iwn2-0.01",
+    "limit-iwn3-0.01",
+    "limit-band20-0.01",
+)
+"""The records ``diffbench run pareto`` draws the fronts on by default: one random signal of
+each spectrum of the limit study, at its lower noise level."""
 
 
 # --- the Pareto front of accuracy against smoothness, without the truth ---------------------
@@ -86,6 +97,37 @@ class Front:
     oracle: int
 
 
+def front_rows(front: Front) -> list[dict]:
+    """``front`` as rows of JSON values, one per setting (params, fit, roughness, rmse,
+    on_front, knee, oracle): what the store keeps (:func:`front_of_rows` reads them back)."""
+    return [
+        {
+            "params": dict(params),
+            "fit": float(front.fit[i]),
+            "roughness": float(front.roughness[i]),
+            "rmse": float(front.rmse[i]),
+            "on_front": bool(front.on_front[i]),
+            "knee": i == front.knee,
+            "oracle": i == front.oracle,
+        }
+        for i, params in enumerate(front.settings)
+    ]
+
+
+def front_of_rows(method: str, rows: list[dict]) -> Front:
+    """The :class:`Front` of ``method`` whose :func:`front_rows` are ``rows``."""
+    return Front(
+        method=method,
+        settings=tuple(row["params"] for row in rows),
+        fit=np.array([row["fit"] for row in rows]),
+        roughness=np.array([row["roughness"] for row in rows]),
+        rmse=np.array([row["rmse"] for row in rows]),
+        on_front=np.array([row["on_front"] for row in rows]),
+        knee=next(i for i, row in enumerate(rows) if row["knee"]),
+        oracle=next(i for i, row in enumerate(rows) if row["oracle"]),
+    )
+
+
 def pareto_front(name: str, realisation, max_evaluations: int = 150, seed: int = 0) -> Front:
     """The :class:`Front` of method ``name`` for ẋ on ``realisation`` (its interior): every
     setting the oracle tuning tries (a spread over the method's tuning ranges, densest near
@@ -123,8 +165,6 @@ def write_pareto(fronts: list[Front], task: str, directory) -> list:
     true ẋ RMSE of the oracle's setting and of the knee's, their ratio, whether the oracle's
     setting is on the front) and ``pareto_<task>.png`` (per method: every setting's fit
     against roughness, the front, the knee and the oracle's setting)."""
-    from pathlib import Path
-
     directory = Path(directory)
     rows = [
         {

@@ -370,6 +370,19 @@ VALIDATION_METHODS = (
 seconds (the Gaussian processes, Jacobi and the peers take minutes per record)."""
 
 
+def validation_scenarios() -> list[str]:
+    """The scenarios ``recommend-check`` validates on by default: every registered one that is
+    sampled uniformly and noisy, less the random signals of the limit study (they have their
+    own)."""
+    return [
+        name
+        for name in signals.available_scenarios()
+        if not (scenario := signals.get_scenario(name)).sampling
+        and scenario.noise.models
+        and not name.startswith("limit-")
+    ]
+
+
 def validate(scenario: str, names=VALIDATION_METHODS, seed: int = 0, max_evaluations=150):
     """Rows scoring :func:`recommend` on one uniformly sampled scenario as if its truth were
     unknown: for each order, the recommended method and setting, its predicted RMSE, its true

@@ -22,6 +22,14 @@ import functools
 from diffbench import signals
 from diffbench.bench.studies.dfki import check_model_matches, dfki_record
 from diffbench.bench.tasks.base import _TASKS, ScenarioTask, Task, register_task
+from diffbench.bench.tasks.items import (
+    Item,
+    ItemStudy,
+    PaperFigures,
+    ParetoStudy,
+    RecommendCheck,
+    TimingStudy,
+)
 from diffbench.bench.tasks.online import LoopTask, OnlineTask, sweep_lineup
 from diffbench.bench.tasks.robot import DfkiTask, RobotSimTask
 from diffbench.bench.tasks.signal import JacobiInfluenceTask, LimitTask, SignalTask
@@ -71,6 +79,8 @@ def _register_builtins() -> None:
     register_task(DfkiTask())
     register_task(GridStudy())
     register_task(LimitStudy())
+    for study in (RecommendCheck(), ParetoStudy(), PaperFigures(), TimingStudy()):
+        register_task(study)
 
 
 def available_tasks(listed_only: bool = False) -> list[str]:
@@ -95,16 +105,22 @@ def get_task(name: str) -> Task:
 __all__ = [
     "DfkiTask",
     "GridStudy",
+    "Item",
+    "ItemStudy",
     "JacobiInfluenceTask",
     "LimitStudy",
     "LimitTask",
     "LoopTask",
     "OnlineTask",
+    "PaperFigures",
+    "ParetoStudy",
+    "RecommendCheck",
     "RobotSimTask",
     "ScenarioTask",
     "SignalTask",
     "Study",
     "Task",
+    "TimingStudy",
     "available_tasks",
     "dfki_task",
     "get_task",

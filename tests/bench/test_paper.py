@@ -137,24 +137,10 @@ def test_paper_figures_command_writes_everything(tmp_path, capsys):
     assert re.search(r"\| jacobi +\| 2 +\|", frequency)
 
 
-def test_error_profile_on_two_processes_is_the_same_bits():
-    serial = paper.error_profile_data(3, names=["jacobi", "butterworth"])
-    totals = []
-
-    def progress(results, total):
-        totals.append(total)
-        return results
-
-    parallel = paper.error_profile_data(
-        3, names=["jacobi", "butterworth"], jobs=2, progress=progress
-    )
-    pd.testing.assert_frame_equal(serial, parallel, check_exact=True)
-    assert totals == [2 * 3]  # one step per method and seed
-
-
 def test_error_profile_is_the_rms_over_seeds_at_each_sample():
     seeds = 3
-    profile = paper.error_profile_data(seeds, names=["jacobi", "spectral"])
+    sums = {name: paper.squared_error_sums(name, seeds) for name in ("jacobi", "spectral")}
+    profile = paper.error_profile_frame(sums, seeds)
     scenario = signals.get_scenario(paper.SCENARIO)
     method = methods.preset("jacobi", "paper-signal")
     squares = 0.0
