@@ -10,16 +10,19 @@ folds of a cross-validation), and
 * ``report(cells, tunings, directory)``: the tables and figures, from stored rows only;
 * ``tuning_data(seed)``: the realisation a tuner works on (signal tasks), or a ValueError.
 
-Each kind is a module of this package (:mod:`.signal`, :mod:`.robot`, :mod:`.online`) on the
-base of :mod:`.base`; the built-in tasks are registered here, on first use. Adding a kind of
-benchmark is one subclass and one :func:`register_task` call.
+Each kind is a module of this package (:mod:`.signal`, :mod:`.robot`, :mod:`.online`,
+:mod:`.study`, :mod:`.items`) on the base of :mod:`.base`; each lists its built-in tasks in a
+``builtin_tasks()`` function, and every module of the package is asked for them on first use.
+Adding a kind of benchmark or a study is one module here: its class(es) and ``builtin_tasks()``
+(a task made at run time, e.g. from a user's records, is added by :func:`register_task`).
 """
 
 from __future__ import annotations
 
 import functools
+import importlib
+import pkgutil
 
-from diffbench import signals
 from diffbench.bench.studies.dfki import check_model_matches, dfki_record
 from diffbench.bench.tasks.base import _TASKS, ScenarioTask, Task, register_task
 from diffbench.bench.tasks.items import (
@@ -34,9 +37,7 @@ from diffbench.bench.tasks.online import LoopTask, OnlineTask, sweep_lineup
 from diffbench.bench.tasks.robot import DfkiTask, RobotSimTask
 from diffbench.bench.tasks.signal import JacobiInfluenceTask, LimitTask, SignalTask
 from diffbench.bench.tasks.study import GridStudy, LimitStudy, Study
-from diffbench.signals import robot2r
 from diffbench.signals.dfki import load_pendulum_model
-from diffbench.signals.scenarios import grid_scenario_names
 
 
 def dfki_task(records, robot_model=None) -> Task:
@@ -65,22 +66,12 @@ def dfki_task(records, robot_model=None) -> Task:
 
 @functools.cache
 def _register_builtins() -> None:
-    grid = set(grid_scenario_names())
-    limits = set(signals.scenarios.limit_scenario_names())
-    for name in signals.available_scenarios():
-        scenario = signals.get_scenario(name)
-        task = LimitTask(scenario) if name in limits else SignalTask(scenario, name not in grid)
-        register_task(task)
-    register_task(JacobiInfluenceTask(signals.get_scenario("paper-signal")))
-    register_task(OnlineTask(signals.get_scenario("paper-signal")))
-    register_task(LoopTask())
-    for name in robot2r.available_robot_scenarios():
-        register_task(RobotSimTask(robot2r.get_robot_scenario(name)))
-    register_task(DfkiTask())
-    register_task(GridStudy())
-    register_task(LimitStudy())
-    for study in (RecommendCheck(), ParetoStudy(), PaperFigures(), TimingStudy()):
-        register_task(study)
+    """Register the built-in tasks: those every module of this package lists in its
+    ``builtin_tasks()`` (a new kind of task or study is one module, found here by its name)."""
+    for info in pkgutil.iter_modules(__path__):
+        module = importlib.import_module(f"{__name__}.{info.name}")
+        for task in getattr(module, "builtin_tasks", tuple)():
+            register_task(task)
 
 
 def available_tasks(listed_only: bool = False) -> list[str]:

@@ -212,7 +212,7 @@ class TimingStudy(ItemStudy):
     machine: run it with one job for the numbers to quote."""
 
     largest_samples: int = 10_000_000
-    ratios: bool = False
+    ratios: bool = True
     name: str = "timing"
     description: str = (
         "samples per second and peak memory of every method up to 1e7 samples (and, with "
@@ -238,3 +238,8 @@ class TimingStudy(ItemStudy):
         if ratios:
             written += timing.write_ratios(directory, pd.DataFrame(ratios))
         return written
+
+
+def builtin_tasks() -> list:
+    """The item studies at their defaults."""
+    return [RecommendCheck(), ParetoStudy(), PaperFigures(), TimingStudy()]

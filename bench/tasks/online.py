@@ -350,3 +350,8 @@ def loop_report(task: str, description: str, cells: pd.DataFrame, directory: Pat
         LOOP_LEGEND,
     )
     return written
+
+
+def builtin_tasks() -> list:
+    """The online paper-signal task and the simulated robot's control loop."""
+    return [OnlineTask(signals.get_scenario("paper-signal")), LoopTask()]

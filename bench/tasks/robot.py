@@ -347,3 +347,13 @@ def dfki_report(cells: pd.DataFrame, directory: Path, spec) -> list[Path]:
         "base parameters.",
     )
     return written
+
+
+def builtin_tasks() -> list:
+    """A task per simulated robot scenario and the DFKI identification on its packaged
+    records."""
+    simulated = [
+        RobotSimTask(robot2r.get_robot_scenario(name))
+        for name in robot2r.available_robot_scenarios()
+    ]
+    return [*simulated, DfkiTask()]

@@ -20,6 +20,7 @@ from diffbench.bench.report.figures import write_error_figure
 from diffbench.bench.studies import limit
 from diffbench.bench.studies.frequency import decompose_error
 from diffbench.bench.tasks.base import ScenarioTask
+from diffbench.signals.scenarios import grid_scenario_names
 
 
 @dataclass(frozen=True, eq=False)
@@ -375,3 +376,16 @@ def influence_report(cells: pd.DataFrame, directory: Path) -> list[Path]:
         "variant changes one design parameter. The paper's table I predicts: κ = μ or q up → "
         "noise up, bias down; T up → noise down, bias up.",
     )
+
+
+def builtin_tasks() -> list:
+    """A task per registered scenario (a limit one for the random signals of the limit study,
+    the grid's unlisted) and Jacobi's influence study (table I) on the paper signal."""
+    grid = set(grid_scenario_names())
+    limits = set(signals.scenarios.limit_scenario_names())
+    tasks = []
+    for name in signals.available_scenarios():
+        scenario = signals.get_scenario(name)
+        listed = name not in grid
+        tasks.append(LimitTask(scenario) if name in limits else SignalTask(scenario, listed))
+    return [*tasks, JacobiInfluenceTask(signals.get_scenario("paper-signal"))]

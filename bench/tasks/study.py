@@ -87,3 +87,8 @@ class LimitStudy(Study):
 
     def report(self, cells, tunings, directory):
         return limit.write_study(cells, directory)
+
+
+def builtin_tasks() -> list:
+    """The grid study and the limit study on every limit scenario."""
+    return [GridStudy(), LimitStudy()]

@@ -6,7 +6,9 @@ command prints), and resumes after SIGKILL to the files of an uninterrupted run.
 are the bespoke commands' reports byte for byte (checked against the committed results by
 test_reproducible_results and ``make bench``)."""
 
+import importlib
 import os
+import pkgutil
 import re
 import signal
 import sqlite3
@@ -21,6 +23,7 @@ import pytest
 
 from diffbench import methods, signals
 from diffbench.bench import runner
+from diffbench.bench import tasks as tasks_package
 from diffbench.bench.cli import main
 from diffbench.bench.core.executor import DaskWorkers
 from diffbench.bench.core.store import STORE_FILE, Store
@@ -31,6 +34,7 @@ from diffbench.bench.tasks import (
     ParetoStudy,
     RecommendCheck,
     TimingStudy,
+    available_tasks,
     get_task,
 )
 
@@ -103,6 +107,19 @@ def test_the_former_bespoke_commands_are_registered_item_studies():
         ParetoStudy(scenarios=("limit-nope",))
     with pytest.raises(ValueError, match="unknown scenario 'nope'"):
         RecommendCheck(scenarios=("nope",))
+
+
+def test_every_module_of_the_tasks_package_registers_its_builtin_tasks():
+    """A new kind of task or study is one module of bench/tasks/ with ``builtin_tasks()``: the
+    registry finds it by walking the package, no list to edit."""
+    registered = set(available_tasks())
+    found = set()
+    for info in pkgutil.iter_modules(tasks_package.__path__):
+        module = importlib.import_module(f"{tasks_package.__name__}.{info.name}")
+        for task in getattr(module, "builtin_tasks", tuple)():
+            assert get_task(task.name).__class__ is task.__class__, task.name
+            found.add(task.name)
+    assert found == registered and {"pareto", "timing", "grid", "paper-signal"} <= found
 
 
 def test_an_error_profile_item_is_the_sum_of_squares_over_its_seeds():
@@ -199,7 +216,7 @@ def test_the_timing_study_runs_on_workers_and_on_dask_and_a_rerun_times_nothing(
     """Timings differ from run to run, so here the rows are checked, not their values: every
     method at every size asked for, a positive throughput; a rerun reads them from the store."""
     pytest.importorskip("distributed")
-    study = TimingStudy(largest_samples=20_000)
+    study = TimingStudy(largest_samples=20_000, ratios=False)
     items = study.items(["finite_difference", "jacobi"], range(1))
     for name, jobs in (("serial", 1), ("jobs", 2), ("dask", DaskWorkers(workers=2))):
         store = Store(tmp_path / name / "store")
