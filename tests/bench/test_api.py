@@ -2,11 +2,13 @@
 stores, names the argument of bad input, says what an interrupted run kept, and never prints
 to the standard output."""
 
+import inspect
 import warnings
+from pathlib import Path
 
 import pytest
 
-from diffbench.bench import api, runner
+from diffbench.bench import api, cli, runner
 from diffbench.bench.cli import main
 from diffbench.bench.core.store import Store
 
@@ -154,3 +156,28 @@ def test_method_groups_and_listings():
     assert len(api.method_names("jacobi,jacobi")) == 1
     assert any(line.startswith("  jacobi  (") for line in api.list_methods())
     assert any(line.startswith(f"  {TASK} [signal]") for line in api.list_tasks())
+
+
+IGNORED = {
+    ("pareto", "timeout_s"),
+    ("pareto", "progress"),
+    ("paper-figures", "timeout_s"),
+    ("recommend-check", "timeout_s"),
+    ("recommend-check", "progress"),
+}
+"""Options a command takes (with the others of --jobs) and its function has no use for."""
+
+
+def test_every_option_of_every_command_reaches_its_api_function():
+    """The command line is wiring only: each command calls one function with its options as
+    arguments; an option the function does not take would be dropped without a word."""
+    assert len(Path(cli.__file__).read_text().splitlines()) <= 300
+    parser = cli.build_parser()
+    commands = next(a for a in parser._actions if a.dest == "command").choices
+    assert set(commands) == set(cli.COMMANDS)
+    for name, command in cli.COMMANDS.items():
+        accepted = set(inspect.signature(command.call).parameters)
+        given = {a.dest for a in commands[name]._actions if a.dest != "help"}
+        lost = given - accepted - set(cli.CLI_ONLY) - {d for c, d in IGNORED if c == name}
+        assert not lost, (name, lost)
+        assert set(command.fixed) <= accepted
