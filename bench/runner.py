@@ -14,6 +14,7 @@ from __future__ import annotations
 import functools
 import math
 import time
+import warnings
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,6 +22,7 @@ from typing import Any
 
 from diffbench import methods
 from diffbench.bench.core import tuning, uptodate
+from diffbench.bench.core.errors import BadInput, DiffbenchNote, DiffbenchWarning
 from diffbench.bench.core.executor import CallTimeout, call_timeout, completed_map, ordered_map
 from diffbench.bench.core.plan import (
     Cell,
@@ -30,8 +32,9 @@ from diffbench.bench.core.plan import (
     tuned_entries,
     unique,
 )
+from diffbench.bench.core.provenance import provenance
 from diffbench.bench.core.store import Store, canonical, study_key
-from diffbench.bench.tasks import get_task
+from diffbench.bench.tasks import Task, get_task
 from diffbench.bench.tasks.items import Item, ItemStudy
 from diffbench.methods._plugins import plugin_of_module
 
@@ -211,6 +214,13 @@ def compute_item(task_and_item: tuple[str, Item]) -> list[dict[str, Any]]:
     return get_task(task).compute(item)
 
 
+def stored_items(study: ItemStudy, items: Sequence[Item], store: Store) -> dict:
+    """``{item: its stored rows, or None}`` for each of ``items`` of ``study``."""
+    store.refresh()
+    name = study.record_name
+    return {item: store.find_study_rows(name, item.name, item.setting) for item in items}
+
+
 def run_items(
     study: ItemStudy,
     items: Sequence[Item],
@@ -223,9 +233,8 @@ def run_items(
     all), on ``jobs`` (:func:`bench.core.executor.completed_map`); this process alone writes
     the store. Returns ``{item: rows}`` in the order of ``items`` and what was computed."""
     items = list(dict.fromkeys(items))
-    store.refresh()
+    rows = stored_items(study, items, store)
     name = study.record_name
-    rows = {item: store.find_study_rows(name, item.name, item.setting) for item in items}
     todo = [item for item, found in rows.items() if found is None]
     results = completed_map(compute_item, [(study.name, item) for item in todo], jobs)
     computed = others = 0
@@ -236,6 +245,62 @@ def run_items(
         rows[item] = store.find_study_rows(name, item.name, item.setting)
     summary = RunSummary(len(items), len(items) - len(todo), computed, others)
     return rows, summary
+
+
+FAILED_CSV = "failed.csv"
+"""The file beside a report that lists the cells that failed (so none is silently missing)."""
+
+
+def report_task(task: Task, store: Store, out: Path) -> list[Path]:
+    """The report of ``task`` from its stored cells (and tunings), written under ``out`` in its
+    folder unless the last report there came from the same store content by the same code
+    (:func:`bench.core.uptodate.report_once`), with ``failed.csv`` listing its failed cells;
+    :class:`BadInput` when nothing of it is stored."""
+    store.refresh()
+    cells = store.cells_frame(task.parts())
+    failed = store.failed_cells(task.parts())
+    if cells.empty and not failed.empty:
+        raise BadInput(
+            f"every cell of {task.name} asked for failed ({len(failed)}: "
+            f"{failed['reason'].iloc[-1]}); nothing to report"
+        )
+    if cells.empty:
+        raise BadInput(
+            f"no stored results of {task.name} in {store.directory}; run "
+            f"`diffbench run {task.name} --out {out}` first"
+        )
+    tables = ("cells", "tunings", "failures") if not failed.empty else ("cells", "tunings")
+    options = {"report": task.name, "folder": task.folder}
+    key = uptodate.inputs_key(options, store.content_version(tables))
+    directory = out / task.folder
+
+    def write() -> list[Path]:
+        written = task.report(cells, store.tunings_frame(), directory)
+        path = directory / FAILED_CSV  # the failed cells, so that none is silently missing
+        if failed.empty:
+            path.unlink(missing_ok=True)
+            return written
+        failed.to_csv(path, index=False)
+        return [*written, path]
+
+    written = uptodate.report_once(directory, key, write)
+    if not failed.empty:
+        warnings.warn(
+            f"{len(failed)} cells of {task.name} failed and are not in its tables (listed in "
+            f"{directory / FAILED_CSV}); the next run tries them again",
+            DiffbenchWarning,
+            stacklevel=3,
+        )
+    current = provenance()["git_rev"]
+    others = sorted(r[:12] for r in set(cells["git_rev"]) - {current})
+    if others:
+        warnings.warn(
+            f"some stored cells of {task.name} were computed by other code revisions "
+            f"({', '.join(others)}); delete {store.directory} to recompute",
+            DiffbenchNote,
+            stacklevel=3,
+        )
+    return written
 
 
 def report_items(study: ItemStudy, rows: dict[Item, list[dict]], out: Path) -> list[Path]:

@@ -1,0 +1,174 @@
+"""How the ``diffbench`` process behaves: exit codes, one-line errors and warnings, an output
+that names itself in its errors, SIGTERM, a closed pipe.
+
+Exit codes: 0 done; 2 a usage error (bad input, or a machine that cannot take the output: a
+full disk, the file size limit, a read-only folder; one line on stderr, never a traceback); 1 an
+internal error (its traceback: a bug, never disguised as a usage error); 130 interrupted by
+Ctrl-C, 143 by SIGTERM (every finished result is stored; the same command resumes; no worker
+process is left behind); 141 when the reader of the output went away (``diffbench list | head``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import os
+import signal
+import sys
+import warnings
+from collections.abc import Callable
+
+from diffbench.bench.core.errors import BadInput, DiffbenchWarning
+from diffbench.bench.core.executor import Terminated, WorkerDied, terminate_on_sigterm
+
+EXIT_INTERNAL = 1
+EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
+EXIT_BROKEN_PIPE = 141
+EXIT_TERMINATED = 143
+
+STDOUT_NAME = "the standard output"
+
+
+class Parser(argparse.ArgumentParser):
+    """An argparse parser whose errors are :class:`BadInput` (one line, exit code 2)."""
+
+    def error(self, message: str):  # argparse would print usage and exit itself
+        raise BadInput(message)
+
+
+def run(dispatch: Callable[[list[str]], None], argv: list[str] | None = None) -> int:
+    """``dispatch(argv)`` as the ``diffbench`` process runs it; returns the exit code.
+
+    Parameters
+    ----------
+    dispatch : callable
+        Parses the command line and does what it says.
+    argv : list of str, optional
+        The arguments (default ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The exit code (see the module's documentation).
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    previous = terminate_on_sigterm()
+    stdout = sys.stdout
+    if stdout is not None and stdout is sys.__stdout__:
+        sys.stdout = NamedOutput(stdout)  # its OSErrors name it (e.g. `> /dev/full`)
+    try:
+        with warnings.catch_warnings():  # restores the caller's warning display afterwards
+            warnings.showwarning = functools.partial(one_line_warning, warnings.showwarning)
+            warnings.simplefilter("always", DiffbenchWarning)  # each one, every time
+            return _run(dispatch, argv)
+    finally:
+        # called in-process (a test, a script), the caller keeps its own SIGTERM handling
+        signal.signal(signal.SIGTERM, previous)
+        sys.stdout = stdout
+
+
+def one_line_warning(fallback, message, category, filename, lineno, file=None, line=None):
+    """diffbench's own warnings (about the user's record, a failed cell...) as one line on
+    stderr, ``diffbench: warning: ...`` (or the category's ``label``); other packages' by
+    ``fallback`` (the usual form)."""
+    if category.__module__.startswith("diffbench."):
+        label = getattr(category, "label", "warning")
+        text = f"diffbench: {label}: {message}" if label else str(message)
+        print(text, file=sys.stderr if file is None else file)
+    else:
+        fallback(message, category, filename, lineno, file, line)
+
+
+class NamedOutput:
+    """The standard output, whose ``OSError`` names it as its file (Python's own names none)."""
+
+    def __init__(self, stream) -> None:
+        self._stream = stream
+        self.error: OSError | None = None
+
+    def _named(self, call, *args):
+        try:
+            return call(*args)
+        except BrokenPipeError:
+            raise
+        except OSError as error:
+            if error.errno is None or error.filename is not None:
+                raise
+            # kept: a caller may swallow it (argparse's help does), the exit code may not
+            self.error = type(error)(error.errno, error.strerror, STDOUT_NAME)
+            raise self.error from None
+
+    def write(self, text: str) -> int:
+        return self._named(self._stream.write, text)
+
+    def flush(self) -> None:
+        return self._named(self._stream.flush)
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
+
+
+def _run(dispatch: Callable[[list[str]], None], argv: list[str]) -> int:
+    try:
+        dispatch(argv)
+    except BadInput as error:
+        message = str(error).splitlines()[0] if str(error) else "bad command line"
+        print(f"diffbench: error: {message}", file=sys.stderr)
+        return EXIT_USAGE
+    except OSError as error:
+        return _os_error(error)
+    except (KeyboardInterrupt, Terminated) as stop:
+        # a run says what it stored and how to resume (``resume``), as an exit would
+        code = EXIT_INTERRUPTED if isinstance(stop, KeyboardInterrupt) else EXIT_TERMINATED
+        resume = getattr(stop, "resume", None)
+        default = "interrupted" if code == EXIT_INTERRUPTED else "terminated"
+        print(f"diffbench: {resume or default}", file=sys.stderr)
+        return _flushed(code) if resume else code
+    except WorkerDied as error:
+        print(f"diffbench: error: {error}", file=sys.stderr)
+        return EXIT_INTERNAL
+    except SystemExit as stop:  # argparse's --help and errors, a plugin's sys.exit at import
+        code = int(stop.code or 0) if not isinstance(stop.code, str) else EXIT_USAGE
+        return _flushed(code)
+    return _flushed(0)
+
+
+def _flushed(code: int) -> int:
+    """``code``, once the standard output is flushed; the flush's ``OSError`` (a full disk
+    under ``--help > /dev/full``) as one line and its exit code."""
+    try:
+        sys.stdout.flush()
+    except OSError as error:
+        return _os_error(error)
+    swallowed = getattr(sys.stdout, "error", None)  # a failed write someone caught
+    return _os_error(swallowed) if swallowed is not None else code
+
+
+def _os_error(error: OSError) -> int:
+    """An ``OSError`` the machine gave (the reader of the output gone, a disk full, the file
+    size limit, a read-only or unwritable folder): one line naming the file, and the exit
+    code; one without an error number is diffbench's bug, raised again (its traceback)."""
+    if isinstance(error, BrokenPipeError):
+        return _broken_pipe()
+    if error.errno is None:
+        raise error
+    name = error.filename
+    if name == STDOUT_NAME:
+        _silence_stdout()  # so that Python's own flush at exit does not fail again
+    where = f": {name}" if name is not None else " (writing a report or reading input)"
+    reason = error.strerror or os.strerror(error.errno)
+    print(f"diffbench: error: {reason}{where}", file=sys.stderr)
+    return EXIT_USAGE
+
+
+def _silence_stdout() -> None:
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+
+
+def _broken_pipe() -> int:
+    # The reader went away (e.g. `| head`): stop quietly, and keep Python's exit-time flush of
+    # stdout from failing again (the pattern the Python documentation gives for SIGPIPE).
+    _silence_stdout()
+    return EXIT_BROKEN_PIPE
