@@ -139,7 +139,8 @@ def run(
     jobs : int or DaskWorkers
         Local worker processes, or :func:`dask_workers`; results identical to a serial run.
     timeout_s : float
-        Most seconds one cell may take; past it the cell is recorded as failed.
+        Most seconds one cell may take; past it the cell is recorded as failed (an item
+        study's items have no such limit).
     out : Path
         Results directory: the store in ``out/store``, the report in ``out/<task folder>``.
     records, robot_model : optional

@@ -33,6 +33,7 @@ class Command(NamedTuple):
 
 OUT = ("out",)
 WORK = ("jobs", "executor", "scheduler", "timeout", "progress")
+ITEMS = ("jobs", "executor", "scheduler", "progress")  # an item study has no per-call timeout
 PLUG = ("plugins",)
 RUN = (*OUT, *WORK, "seeds", "methods", *PLUG)
 TUNE = (*OUT, *WORK, "seeds", *PLUG, "method", "task2", "criteria", "orders2", "cutoff_hz")
@@ -75,18 +76,18 @@ COMMANDS: dict[str, Command] = {
         "each method's front of accuracy against smoothness without the truth, with its "
         "knee and the oracle's setting (OUT/limit/pareto_TASK.*)",
         api.pareto,
-        (*OUT, *WORK, *PLUG, "methods", "task3"),
+        (*OUT, *ITEMS, *PLUG, "methods", "task3"),
     ),
     "paper-figures": Command(
         "the paper's figures 1-3 (PNG + CSV), frequency table, error against position",
         api.paper_figures,
-        (*OUT, *WORK, *PLUG, "seeds3", "methods2"),
+        (*OUT, *ITEMS, *PLUG, "seeds3", "methods2"),
     ),
     "timing": Command(
         "throughput and peak memory of every method vs signal length, and the speed "
         "ratios against the peers",
         api.timing,
-        (*OUT, *PLUG, "largest", "ratios"),
+        (*OUT, *ITEMS, *PLUG, "methods", "largest", "ratios"),
     ),
     "export": Command(
         "write a scenario's record (time, samples and truth) as a user's CSV or Parquet file",
@@ -101,7 +102,7 @@ COMMANDS: dict[str, Command] = {
     "recommend-check": Command(
         "score `recommend` against the truth on the signal scenarios (as if unknown)",
         api.recommend_check,
-        (*OUT, *PLUG, *WORK, "scenarios2", "methods4"),
+        (*OUT, *PLUG, *ITEMS, "scenarios2", "methods4"),
     ),
     "report": Command(
         "render a task's report again from the store",

@@ -158,13 +158,7 @@ def test_method_groups_and_listings():
     assert any(line.startswith(f"  {TASK} [signal]") for line in api.list_tasks())
 
 
-IGNORED = {
-    ("pareto", "timeout_s"),
-    ("pareto", "progress"),
-    ("paper-figures", "timeout_s"),
-    ("recommend-check", "timeout_s"),
-    ("recommend-check", "progress"),
-}
+IGNORED: set[tuple[str, str]] = set()
 """Options a command takes (with the others of --jobs) and its function has no use for."""
 
 

@@ -55,6 +55,7 @@ STUDIES = {
 }
 """Each deterministic item study at a small size, as the command a user types."""
 FOLDERS = {
+    "timing": "timing",
     "pareto": "limit",
     "paper-figures": "paper-figures",
     "recommend-check": ("recommend-validation"),
@@ -180,17 +181,28 @@ def _stored_items(directory: Path) -> int:
 
 SIX = "finite_difference,jacobi,savitzky_golay,butterworth,spectral,kalman"
 KILLED = {
-    "paper-figures": ["run", "paper-figures", "--seeds", "3", "--methods", SIX],
-    "pareto": ["pareto", "limit-iwn2-0.01", "--methods", SIX],
+    "paper-figures": (["run", "paper-figures", "--seeds", "3", "--methods", SIX], 6),
+    "pareto": (["pareto", "limit-iwn2-0.01", "--methods", SIX], 6),
+    "recommend-check": (
+        [
+            *("recommend-check", "--methods", "butterworth,finite_difference"),
+            *("--scenarios", "paper-signal,chirp-gaussian,damped-gaussian"),
+        ],
+        3,
+    ),
+    "timing": (["timing", "--no-ratios", "--largest", "100000", "--methods", SIX], 6),
 }
+"""Each item study as a command whose items take long enough to kill it mid-run, and how many
+items it has."""
 
 
 @pytest.mark.parametrize("study", sorted(KILLED))
 def test_a_killed_item_study_resumes_to_the_uninterrupted_files(study, tmp_path, capsys):
     """SIGKILL of the study on two workers once one of its items is stored: the rerun computes
-    only the items missing, and its files are those of an uninterrupted run."""
-    command = [*KILLED[study], "--no-progress", "--jobs", "2"]
-    total = len(command[command.index("--methods") + 1].split(","))
+    only the items missing, and its files are those of an uninterrupted run (timing: the same
+    rows, its times being measured anew)."""
+    command, total = KILLED[study]
+    command = [*command, "--no-progress", "--jobs", "2"]
     killed = tmp_path / "killed"
     process = subprocess.Popen(
         [*CLI, *command, "--out", str(killed)],
@@ -210,6 +222,11 @@ def test_a_killed_item_study_resumes_to_the_uninterrupted_files(study, tmp_path,
     assert main([*command, "--out", str(killed)]) == 0
     computed, already = _counts(capsys.readouterr().out)
     assert already == stored and computed + already == total
+    if study == "timing":
+        table = pd.read_csv(killed / "timing" / "throughput.csv")
+        assert sorted(set(table["method"])) == sorted(SIX.split(","))
+        assert (table["samples_per_s"] > 0).all()
+        return
     assert main([*command, "--out", str(tmp_path / "full")]) == 0
     assert _files(killed, study) == _files(tmp_path / "full", study)
 

@@ -114,3 +114,56 @@ def test_a_killed_study_resumes_to_the_uninterrupted_table(tmp_path, capsys):
     assert already >= stored and computed + already == 1200
     assert main([*command, "--out", str(tmp_path / "full")]) == 0
     assert _table(killed) == _table(tmp_path / "full")
+
+
+LIMIT = ["limit", "--scenarios", "limit-iwn2-0.01", "--orders", "1", "--no-progress"]
+"""The limit study on one record, ẋ (an oracle and a data-only tuning per method)."""
+
+
+def _efficiency(out: Path) -> str:
+    return (out / "limit" / "efficiency.csv").read_text()
+
+
+def test_run_limit_serial_on_workers_and_on_dask_gives_one_table_and_a_rerun_computes_nothing(
+    tmp_path, capsys
+):
+    pytest.importorskip("distributed")
+    command = [*LIMIT, "--methods", "finite_difference,jacobi", "--seeds", "2"]
+    assert main([*command, "--out", str(tmp_path / "serial")]) == 0
+    tunings, _, cells, _ = _counts(capsys.readouterr().out)
+    assert tunings == 4 and cells >= 4  # 2 methods x 2 criteria; a cell per setting and seed
+    for name, extra in (("jobs", ["--jobs", "2"]), ("dask", ["--executor", "dask", "--jobs", "2"])):
+        assert main([*command, *extra, "--out", str(tmp_path / name)]) == 0
+        assert _counts(capsys.readouterr().out) == (tunings, 0, cells, 0)
+        assert _efficiency(tmp_path / name) == _efficiency(tmp_path / "serial"), name
+    stored = _stored_cells(tmp_path / "serial" / "store")  # twins of one computation too
+    assert main([*command, "--out", str(tmp_path / "serial")]) == 0
+    assert _counts(capsys.readouterr().out) == (0, tunings, 0, stored)
+
+
+def test_a_killed_limit_study_resumes_to_the_uninterrupted_table(tmp_path, capsys):
+    """SIGKILL of ``limit --jobs 2`` once some of its cells are stored: the rerun completes
+    it, computing only what is missing, to the table of an uninterrupted run."""
+    command = [*LIMIT, "--methods", "finite_difference,jacobi,butterworth", "--seeds", "40"]
+    command += ["--jobs", "2"]
+    killed = tmp_path / "killed"
+    process = subprocess.Popen(
+        [*CLI, *command, "--out", str(killed)],
+        env=ENV,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    deadline = time.monotonic() + 300
+    while _stored_cells(killed / "store") < 20:
+        assert process.poll() is None, "the run ended before it could be killed"
+        assert time.monotonic() < deadline, "no cells stored in time"
+        time.sleep(0.05)
+    process.send_signal(signal.SIGKILL)
+    process.communicate(timeout=60)
+    stored = _stored_cells(killed / "store")
+    assert main([*command, "--out", str(killed)]) == 0
+    tunings_computed, tunings_reused, computed, already = _counts(capsys.readouterr().out)
+    assert (tunings_computed, tunings_reused) == (0, 6)
+    assert already >= stored >= 20 and computed >= 1, "the kill should land mid-run"
+    assert main([*command, "--out", str(tmp_path / "full")]) == 0
+    assert _efficiency(killed) == _efficiency(tmp_path / "full")
