@@ -128,10 +128,10 @@ def test_run_limit_serial_on_workers_and_on_dask_gives_one_table_and_a_rerun_com
     tmp_path, capsys
 ):
     pytest.importorskip("distributed")
-    command = [*LIMIT, "--methods", "finite_difference,jacobi", "--seeds", "2"]
+    command = [*LIMIT, "--methods", "jacobi", "--seeds", "2"]
     assert main([*command, "--out", str(tmp_path / "serial")]) == 0
     tunings, _, cells, _ = _counts(capsys.readouterr().out)
-    assert tunings == 4 and cells >= 4  # 2 methods x 2 criteria; a cell per setting and seed
+    assert tunings == 2 and cells >= 2  # an oracle and a data-only tuning; a cell per seed
     for name, extra in (("jobs", ["--jobs", "2"]), ("dask", ["--executor", "dask", "--jobs", "2"])):
         assert main([*command, *extra, "--out", str(tmp_path / name)]) == 0
         assert _counts(capsys.readouterr().out) == (tunings, 0, cells, 0)
@@ -144,7 +144,7 @@ def test_run_limit_serial_on_workers_and_on_dask_gives_one_table_and_a_rerun_com
 def test_a_killed_limit_study_resumes_to_the_uninterrupted_table(tmp_path, capsys):
     """SIGKILL of ``limit --jobs 2`` once some of its cells are stored: the rerun completes
     it, computing only what is missing, to the table of an uninterrupted run."""
-    command = [*LIMIT, "--methods", "finite_difference,jacobi,butterworth", "--seeds", "40"]
+    command = [*LIMIT, "--methods", "finite_difference,jacobi", "--seeds", "30"]
     command += ["--jobs", "2"]
     killed = tmp_path / "killed"
     process = subprocess.Popen(
@@ -154,7 +154,7 @@ def test_a_killed_limit_study_resumes_to_the_uninterrupted_table(tmp_path, capsy
         stderr=subprocess.DEVNULL,
     )
     deadline = time.monotonic() + 300
-    while _stored_cells(killed / "store") < 20:
+    while _stored_cells(killed / "store") < 10:
         assert process.poll() is None, "the run ended before it could be killed"
         assert time.monotonic() < deadline, "no cells stored in time"
         time.sleep(0.05)
@@ -163,7 +163,7 @@ def test_a_killed_limit_study_resumes_to_the_uninterrupted_table(tmp_path, capsy
     stored = _stored_cells(killed / "store")
     assert main([*command, "--out", str(killed)]) == 0
     tunings_computed, tunings_reused, computed, already = _counts(capsys.readouterr().out)
-    assert (tunings_computed, tunings_reused) == (0, 6)
-    assert already >= stored >= 20 and computed >= 1, "the kill should land mid-run"
+    assert (tunings_computed, tunings_reused) == (0, 4)
+    assert already >= stored >= 10 and computed >= 1, "the kill should land mid-run"
     assert main([*command, "--out", str(tmp_path / "full")]) == 0
     assert _efficiency(killed) == _efficiency(tmp_path / "full")
