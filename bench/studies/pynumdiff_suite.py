@@ -170,6 +170,7 @@ def record_table(entries: pd.DataFrame, record: str) -> pd.DataFrame:
             "package": part["package"],
             "parameters": part["source"] + ": " + part["setting"],
             "time stamps": part["time_stamps"],
+            "tuned on": part["tuned_on"],
             "coverage": part["coverage"].map(lambda v: f"{v:.0%}"),
             "covers all": part["covers"].map({True: "yes", False: "NO"}),
             "RMSE whole record": part["rmse_whole"],
@@ -238,7 +239,8 @@ def write_report(rows: list[dict[str, Any]], directory: Path, seeds: int) -> lis
         f"ẋ RMSE, mean over {seeds} noise seeds (Gaussian, std {records.NOISE_STD:g}, "
         "`numpy.random.default_rng(seed)`); native methods tuned by the truth over the whole "
         f"record on the seed {tuning.TUNING_SEED} (never scored; one that covers no whole "
-        "record: on the widest middle part it covers, see `tuned on` in entries.csv); "
+        "record: on the widest middle part it covers, column `tuned on`; one that covers too "
+        "little to be tuned: at its defaults); "
         f"PyNumDiff's methods at its tests' parameters ({records.SOURCE}). A method not "
         "covering every sample at every seed has no whole-record RMSE (its RMSE over the "
         "samples it covers is beside it). Ratio: diffbench's best / PyNumDiff's best (< 1: "

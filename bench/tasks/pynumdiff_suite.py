@@ -72,17 +72,18 @@ class PyNumDiffSuite(ItemStudy):
             try:
                 tuned = suite.oracle_setting(record, name)
                 params, tuned_on = tuned["params"], tuned["tuned_on"]
-            except ValueError as error:
-                params, tuned_on = {}, f"not tuned: {error}"
+            except ValueError as error:  # no setting covers enough to be tuned: its defaults
+                params, tuned_on = {}, f"defaults, not tuned: {error}"
         else:
             params, tuned_on = setting["params"], "—"
+        source = "defaults" if tuned_on.startswith("defaults") else setting["source"]
         scenario = records.get(record)
         stamps = methods.method_class(name).time_stamps if scenario.sampling else "uniform grid"
         described = {
             "record": record,
             "method": name,
             "package": _package(name),
-            "source": setting["source"],
+            "source": source,
             "params": params,
             "time_stamps": stamps,
             "tuned_on": tuned_on,
