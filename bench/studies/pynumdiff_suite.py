@@ -188,6 +188,16 @@ def _best(part: pd.DataFrame) -> tuple[str, float]:
     return f"{best['method']} ({best['setting']})", float(best["rmse_whole"])
 
 
+def _ratio(ours: float, theirs: float) -> float:
+    """``ours / theirs``; inf when theirs is exact (0) and ours is not, NaN when either is
+    missing."""
+    if math.isnan(ours) or math.isnan(theirs):
+        return math.nan
+    if theirs == 0:
+        return 1.0 if ours == 0 else math.inf
+    return ours / theirs
+
+
 def summary_table(entries: pd.DataFrame) -> pd.DataFrame:
     """Per record: diffbench's best at full coverage against PyNumDiff's best (at its tests'
     parameters; and tuned, where tuned rows exist), and their ratio (< 1: diffbench ahead)."""
@@ -207,10 +217,10 @@ def summary_table(entries: pd.DataFrame) -> pd.DataFrame:
                 "its RMSE": ours_rmse,
                 "PyNumDiff best (its tests' parameters)": theirs,
                 "its RMSE ": theirs_rmse,
-                "ratio": ours_rmse / theirs_rmse if theirs_rmse > 0 else math.nan,
+                "ratio": _ratio(ours_rmse, theirs_rmse),
                 "PyNumDiff tuned best": tuned,
                 "its RMSE  ": tuned_rmse,
-                "ratio to tuned": ours_rmse / tuned_rmse if tuned_rmse > 0 else math.nan,
+                "ratio to tuned": _ratio(ours_rmse, tuned_rmse),
                 "diffbench best on its valid samples": (
                     "—"
                     if best_valid is None
@@ -227,7 +237,9 @@ def _shown(frame: pd.DataFrame) -> pd.DataFrame:
     shown = frame.copy()
     for column in shown.columns:
         if pd.api.types.is_float_dtype(shown[column]):
-            shown[column] = shown[column].map(tables.nan_to_dash)
+            shown[column] = shown[column].map(
+                lambda v: "∞" if v == math.inf else tables.nan_to_dash(v)
+            )
     return shown
 
 

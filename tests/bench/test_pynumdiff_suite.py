@@ -136,3 +136,8 @@ def test_a_method_that_masks_ends_is_marked_not_covering():
     entries = study.entries_frame(rows)
     assert not entries["covers"].iloc[0] and math.isnan(entries["rmse_whole"].iloc[0])
     assert entries["rmse_valid"].iloc[0] == 1.5 and entries["coverage"].iloc[0] == 0.95
+
+
+def test_ratio_against_an_exact_peer_is_infinite():
+    assert study._ratio(0.5, 0.0) == math.inf and study._ratio(0.0, 0.0) == 1.0
+    assert study._ratio(0.5, 0.25) == 2.0 and math.isnan(study._ratio(math.nan, 1.0))
