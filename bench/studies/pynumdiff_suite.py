@@ -138,12 +138,26 @@ def setting_label(params: dict) -> str:
     )
 
 
+def _declared_order(name: str, params: dict) -> dict:
+    """``params`` in the order ``name`` declares its parameters (sorted if it is not
+    registered here), so a label does not depend on how the store kept the keys."""
+    try:
+        declared = [spec.name for spec in methods.params_of(methods.method_class(name))]
+    except ValueError:
+        declared = []
+    rank = {key: index for index, key in enumerate(declared)}
+    return dict(sorted(params.items(), key=lambda item: (rank.get(item[0], len(rank)), item[0])))
+
+
 def entries_frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
     """One row per entry (record, method, setting) from the per-seed rows (each carrying
     ``record``, ``method``, ``package``, ``source``, ``params``, ``time_stamps``): the means
     over seeds, ``covers`` (every sample at every seed)."""
     frame = pd.DataFrame(rows)
-    frame["setting"] = frame["params"].map(setting_label)
+    frame["setting"] = [
+        setting_label(_declared_order(name, params))
+        for name, params in zip(frame["method"], frame["params"], strict=True)
+    ]
     keys = ["record", "method", "package", "source", "setting", "time_stamps", "tuned_on"]
     grouped = frame.groupby(keys, sort=False, dropna=False)
     table = grouped.agg(
