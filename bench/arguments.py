@@ -197,6 +197,8 @@ def progress_bar(progress: bool, unit: str):
     def wrap(items, total):
         from tqdm import tqdm
 
+        if total == 0:  # nothing to compute: no empty bar
+            return items
         return tqdm(items, total=total, unit=unit, file=sys.stderr, dynamic_ncols=True)
 
     return wrap

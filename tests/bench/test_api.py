@@ -197,3 +197,10 @@ def test_the_readmes_api_example_runs_and_stores_what_it_says(tmp_path, monkeypa
         "jacobi",
     )
     assert (tmp_path / "my-results" / "limit" / "pareto_limit-iwn2-0.01.md").is_file()
+
+
+def test_a_rerun_with_nothing_to_compute_draws_no_progress_bar(tmp_path, capsys):
+    api.run(TASK, seeds=1, methods=["finite_difference"], out=tmp_path, progress=True)
+    assert "cell" in capsys.readouterr().err  # the bar of the cells computed
+    api.run(TASK, seeds=1, methods=["finite_difference"], out=tmp_path, progress=True)
+    assert "cell" not in capsys.readouterr().err  # nothing computed: no empty bar
