@@ -80,6 +80,7 @@ studies: $(STAMP)
 	$(BIN)/diffbench run limit --methods native,$(GRID_PEERS),causal --seeds 20 --jobs 2 \
 	  --out $(STUDIES)
 	$(BIN)/diffbench run pareto --methods native --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench run pynumdiff-suite --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench export pendulum-500hz-jitter $(STUDIES)/recommend-example/pendulum.csv
 	$(BIN)/diffbench recommend $(STUDIES)/recommend-example/pendulum.csv --time t --column x \
 	  --dt 0.002 --methods native,$(GRID_PEERS) --out $(STUDIES)/recommend-example
