@@ -160,7 +160,7 @@ def test_channels_are_differentiated_independently(name, params):
     method = methods.get(name, **params)
     rng = np.random.default_rng(3)
     # two channel axes (2 x 2 channels): the layout, not the count, is what could go wrong
-    x = rng.standard_normal((_length(method, 800), 2, 2))
+    x = rng.standard_normal((_length(method, 400), 2, 2))
     together = method(x, DT)
     # the two off-diagonal channels: a transposed or mixed-up layout shows on them
     for i, j in ((0, 1), (1, 0)):
