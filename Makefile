@@ -95,8 +95,8 @@ lint: $(STAMP)
 	@! grep -rnE --include='*.py' 'fmt: *(skip|off)' bench methods signals tests \
 	  || { echo "lint: remove the formatter exemptions above (ruff format decides)"; exit 1; }
 
-# two worker processes (pytest-xdist): the suite took 12.3 min on 2 cores here on 2026-11-28 with
-# make studies niced beside it (20.7 CPU-min: at least about 10.4 min idle; about 200 CPU-s of it
+# two worker processes (pytest-xdist): the suite took 11.5 min on 2 cores here on 2026-11-28 with
+# make studies niced beside it (18.9 CPU-min: about 9.5 min idle; about 200 CPU-s of it
 # the paper suite rerun under two BLAS kernels)
 test: lint
 	$(BIN)/python -m pytest -q -n 2 --benchmark-disable
