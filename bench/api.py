@@ -85,7 +85,6 @@ __all__ = [
     "load_plugins",
     "method_names",
     "open_store",
-    "paper_figures",
     "pareto",
     "recommend",
     "recommend_check",
@@ -396,29 +395,6 @@ def pareto(
     return run(
         "pareto",
         scenarios=[task],
-        methods=methods,
-        jobs=jobs,
-        out=out,
-        progress=progress,
-        echo=echo,
-    )
-
-
-def paper_figures(
-    *,
-    seeds: int = 20,
-    methods: str | Iterable[str] | None = None,
-    jobs: Workers = 1,
-    out: Path = Path("results"),
-    progress: bool = False,
-    echo: Echo | None = None,
-) -> RunResult:
-    """:func:`run` of the ``paper-figures`` study: the paper's figures 1-3 (PNG + CSV), its
-    frequency table and the error against position over ``seeds`` noise seeds, in
-    ``out/paper-figures``."""
-    return run(
-        "paper-figures",
-        seeds=seeds,
         methods=methods,
         jobs=jobs,
         out=out,

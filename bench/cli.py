@@ -80,8 +80,9 @@ COMMANDS: dict[str, Command] = {
     ),
     "paper-figures": Command(
         "the paper's figures 1-3 (PNG + CSV), frequency table, error against position",
-        api.paper_figures,
+        api.run,
         (*OUT, *ITEMS, *PLUG, "seeds3", "methods2"),
+        {"task": "paper-figures"},
     ),
     "timing": Command(
         "throughput and peak memory of every method vs signal length, and the speed "

@@ -7,14 +7,8 @@ are the bespoke commands' reports byte for byte (checked against the committed r
 test_reproducible_results and ``make bench``)."""
 
 import importlib
-import os
 import pkgutil
 import re
-import signal
-import sqlite3
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +20,7 @@ from diffbench.bench import api, runner
 from diffbench.bench import tasks as tasks_package
 from diffbench.bench.cli import main
 from diffbench.bench.core.executor import DaskWorkers
-from diffbench.bench.core.store import STORE_FILE, Store
+from diffbench.bench.core.store import Store
 from diffbench.bench.studies import paper, pareto, recommend
 from diffbench.bench.tasks import (
     ItemStudy,
@@ -37,10 +31,7 @@ from diffbench.bench.tasks import (
     available_tasks,
     get_task,
 )
-
-ROOT = Path(__file__).resolve().parents[2]
-ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
-CLI = [sys.executable, "-m", "diffbench.bench"]
+from tests.bench.killing import kill_once_stored, stored_items
 
 STUDIES = {
     "pareto": ["pareto", "limit-iwn2-0.01", "--methods", "finite_difference,jacobi"],
@@ -168,17 +159,6 @@ def test_an_item_study_on_workers_and_on_dask_gives_the_serial_files_and_a_rerun
     assert _counts(capsys.readouterr().out) == (0, computed)
 
 
-def _stored_items(directory: Path) -> int:
-    path = directory / STORE_FILE
-    if not path.exists():
-        return 0
-    try:
-        with sqlite3.connect(path) as connection:
-            return connection.execute("SELECT count(*) FROM studies").fetchone()[0]
-    except sqlite3.OperationalError:  # the tables are being created
-        return 0
-
-
 SIX = "finite_difference,jacobi,savitzky_golay,butterworth,spectral,kalman"
 FOUR = "finite_difference,jacobi,savitzky_golay,butterworth"
 KILLED = {
@@ -208,20 +188,7 @@ def test_a_killed_item_study_resumes_to_the_uninterrupted_files(study, tmp_path,
     command, total = KILLED[study]
     command = [*command, "--no-progress", "--jobs", "2"]
     killed = tmp_path / "killed"
-    process = subprocess.Popen(
-        [*CLI, *command, "--out", str(killed)],
-        env=ENV,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    deadline = time.monotonic() + 300
-    while _stored_items(killed / "store") < 1:
-        assert process.poll() is None, "the run ended before it could be killed"
-        assert time.monotonic() < deadline, "no item stored in time"
-        time.sleep(0.05)
-    process.send_signal(signal.SIGKILL)
-    process.communicate(timeout=60)
-    stored = _stored_items(killed / "store")
+    stored = kill_once_stored(command, killed, stored_items, 1)
     assert 1 <= stored < total, "the kill should land mid-run"
     assert main([*command, "--out", str(killed)]) == 0
     computed, already = _counts(capsys.readouterr().out)

@@ -15,7 +15,14 @@ import pandas as pd
 import pytest
 
 from diffbench.bench.core.roles import Role
-from diffbench.bench.core.store import STORE_FILE, Store, StoreError, canonical, tuning_key
+from diffbench.bench.core.store import (
+    STORE_FILE,
+    Store,
+    StoreError,
+    canonical,
+    cell_key,
+    tuning_key,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 ROLE = Role.of_preset("paper-signal", "paper").as_dict()
@@ -489,17 +496,7 @@ def one_dict() -> dict:
 
 
 def test_a_one_seed_tuning_keeps_the_keys_stored_before_the_seed_count_existed(tmp_path):
-    from diffbench.bench.core.store import cell_key, tuning_key
-
-    fields = {
-        "task": "t",
-        "method": "m",
-        "criterion": "oracle",
-        "order": 1,
-        "tuning_seed": 10_000,
-        "cutoff_hz": None,
-        "budget": None,
-    }
+    fields = dict(FIELDS)
     # the key as every earlier version wrote it: the seven fields, sorted, compact JSON
     assert tuning_key(**fields) == json.dumps(fields, sort_keys=True, separators=(",", ":"))
     assert tuning_key(**fields, tuning_seeds=1) == tuning_key(**fields)

@@ -3,24 +3,15 @@ cells through the same runner, store and executor as any task; they run on local
 Dask with the same tables as a serial run, resume after SIGKILL, and recompute nothing on a
 rerun (counted from what the command prints). ``diffbench grid`` and ``limit`` are aliases."""
 
-import os
 import re
-import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import pytest
 
 from diffbench.bench.cli import main
-from diffbench.bench.core.store import Store
 from diffbench.bench.studies import grid, limit
 from diffbench.bench.tasks import GridStudy, LimitStudy, Study, get_task
-
-ROOT = Path(__file__).resolve().parents[2]
-ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
-CLI = [sys.executable, "-m", "diffbench.bench"]
+from tests.bench.killing import kill_once_stored, stored_cells
 
 GRID = ["run", "grid", "--methods", "finite_difference", "--orders", "1", "--seeds", "2"]
 """The grid study at its smallest: one method, ẋ, two seeds (40 tunings, 80 cells)."""
@@ -80,33 +71,12 @@ def test_run_grid_serial_on_workers_and_on_dask_gives_one_table_and_a_rerun_comp
     assert _counts(capsys.readouterr().out) == (0, 40, 0, 80)
 
 
-def _stored_cells(directory: Path) -> int:
-    if not directory.exists():
-        return 0
-    frame = Store(directory).cells_frame()
-    cell = ["task", "method", "params", "seed", "role"]
-    return 0 if frame.empty else len(frame[cell].drop_duplicates())
-
-
 def test_a_killed_study_resumes_to_the_uninterrupted_table(tmp_path, capsys):
     """SIGKILL of ``run grid --jobs 2`` once some of its cells are stored: the rerun completes
     it, computing only what is missing, to the table of an uninterrupted run."""
     command = [*GRID[:-1], "30", "--no-progress", "--jobs", "2"]  # 40 tunings, 1200 cells
     killed = tmp_path / "killed"
-    process = subprocess.Popen(
-        [*CLI, *command, "--out", str(killed)],
-        env=ENV,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    deadline = time.monotonic() + 300
-    while _stored_cells(killed / "store") < 50:
-        assert process.poll() is None, "the run ended before it could be killed"
-        assert time.monotonic() < deadline, "no cells stored in time"
-        time.sleep(0.05)
-    process.send_signal(signal.SIGKILL)
-    process.communicate(timeout=60)
-    stored = _stored_cells(killed / "store")
+    stored = kill_once_stored(command, killed, stored_cells, 50)
     assert 50 <= stored < 1200, "the kill should land mid-run"
     assert main([*command, "--out", str(killed)]) == 0
     tunings_computed, tunings_reused, computed, already = _counts(capsys.readouterr().out)
@@ -136,7 +106,7 @@ def test_run_limit_serial_on_workers_and_on_dask_gives_one_table_and_a_rerun_com
         assert main([*command, *extra, "--out", str(tmp_path / name)]) == 0
         assert _counts(capsys.readouterr().out) == (tunings, 0, cells, 0)
         assert _efficiency(tmp_path / name) == _efficiency(tmp_path / "serial"), name
-    stored = _stored_cells(tmp_path / "serial" / "store")  # twins of one computation too
+    stored = stored_cells(tmp_path / "serial" / "store")  # twins of one computation too
     assert main([*command, "--out", str(tmp_path / "serial")]) == 0
     assert _counts(capsys.readouterr().out) == (0, tunings, 0, stored)
 
@@ -147,20 +117,7 @@ def test_a_killed_limit_study_resumes_to_the_uninterrupted_table(tmp_path, capsy
     command = [*LIMIT, "--methods", "finite_difference,jacobi", "--seeds", "30"]
     command += ["--jobs", "2"]
     killed = tmp_path / "killed"
-    process = subprocess.Popen(
-        [*CLI, *command, "--out", str(killed)],
-        env=ENV,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-    )
-    deadline = time.monotonic() + 300
-    while _stored_cells(killed / "store") < 10:
-        assert process.poll() is None, "the run ended before it could be killed"
-        assert time.monotonic() < deadline, "no cells stored in time"
-        time.sleep(0.05)
-    process.send_signal(signal.SIGKILL)
-    process.communicate(timeout=60)
-    stored = _stored_cells(killed / "store")
+    stored = kill_once_stored(command, killed, stored_cells, 10)
     assert main([*command, "--out", str(killed)]) == 0
     tunings_computed, tunings_reused, computed, already = _counts(capsys.readouterr().out)
     assert (tunings_computed, tunings_reused) == (0, 4)
