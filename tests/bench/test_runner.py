@@ -266,13 +266,34 @@ def _wait_for_cells(directory: Path, count: int, process) -> None:
     raise AssertionError("no cells stored in time")
 
 
+SLOW_PLUGIN = """
+import os
+import time
+
+from diffbench.methods import register
+from diffbench.methods.savitzky_golay import SavitzkyGolay
+
+
+@register("slow.savitzky_golay")
+class SlowSavitzkyGolay(SavitzkyGolay):
+    \"\"\"Savitzky-Golay that takes 50 ms more a call while $DIFFBENCH_TEST_SLOW is set, so that
+    a run can be stopped while its workers are busy.\"\"\"
+
+    def _estimate(self, x, dt, orders):
+        if os.environ.get("DIFFBENCH_TEST_SLOW"):
+            time.sleep(0.05)
+        return super()._estimate(x, dt, orders)
+"""
+
 RUN = [
     "run",
     "paper-signal",
     "--seeds",
     "30",
     "--methods",
-    "finite_difference,savitzky_golay,butterworth",
+    "finite_difference,slow.savitzky_golay,butterworth",
+    "--plugin",
+    "slow_methods",
     "--no-progress",
 ]
 
@@ -282,11 +303,16 @@ RUN = [
 def test_stopping_a_jobs_run_leaves_no_worker_and_the_rerun_completes(tmp_path, stop):
     """SIGTERM (exit 143) or SIGKILL of `run --jobs 2` mid-run: no worker process survives,
     every finished cell is kept, and the same command completes the run to the table of an
-    uninterrupted one."""
+    uninterrupted one. One method sleeps 50 ms a call in the stopped run (at least 0.75 s of
+    work for each of the 2 workers), so the stop lands while the workers compute."""
+    plugin = tmp_path / "plugin"
+    plugin.mkdir()
+    (plugin / "slow_methods.py").write_text(SLOW_PLUGIN)
+    env = {**ENV, "PYTHONPATH": f"{ROOT}{os.pathsep}{plugin}"}
     out = tmp_path / "killed"
     process = subprocess.Popen(
         [*CLI, *RUN, "--jobs", "2", "--out", str(out)],
-        env=ENV,
+        env={**env, "DIFFBENCH_TEST_SLOW": "1"},
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
     )
@@ -304,12 +330,14 @@ def test_stopping_a_jobs_run_leaves_no_worker_and_the_rerun_completes(tmp_path, 
     assert not [pid for pid in workers if _alive(pid)], "orphaned workers"
     stored = len(Store(out / "store").cells.records)
     assert 0 < stored < 90, "the stop should land mid-run"
-    from diffbench.bench.cli import main
-
-    assert main([*RUN, "--out", str(out)]) == 0
-    assert main([*RUN, "--out", str(tmp_path / "full")]) == 0
+    for directory in (out, tmp_path / "full"):
+        finished = subprocess.run(
+            [*CLI, *RUN, "--out", str(directory)], env=env, capture_output=True, timeout=300
+        )
+        assert finished.returncode == 0, finished.stderr
     full = (tmp_path / "full" / "paper-signal" / "rmse.csv").read_text()
     assert (out / "paper-signal" / "rmse.csv").read_text() == full
+    assert "slow.savitzky_golay" in full
 
 
 def test_two_concurrent_runs_on_one_store_store_each_cell_once(tmp_path):
