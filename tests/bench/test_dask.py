@@ -16,7 +16,8 @@ from diffbench.bench.core.store import Store
 
 distributed = pytest.importorskip("dask.distributed")
 
-from tests.bench.test_runner import CLI, ENV, RUN, _cells, _rows, _values, _wait_for_cells  # noqa: E402
+from tests.bench.killing import STOPPABLE_RUN, finish, slow_plugin_env  # noqa: E402
+from tests.bench.test_runner import CLI, _cells, _rows, _values, _wait_for_cells  # noqa: E402
 
 IN_PROCESS = DaskWorkers(workers=2, processes=False)  # threads of this process: fast to start
 
@@ -98,11 +99,13 @@ def test_a_scheduler_that_does_not_answer_is_a_usage_error(tmp_path, capsys, mon
 def test_killing_the_client_mid_run_loses_nothing_and_the_rerun_completes(tmp_path):
     """SIGKILL of `run --executor dask --jobs 2` (its LocalCluster's processes with it or
     after them): the finished cells are stored once each, and the same command completes the
-    run to the table of an uninterrupted one."""
+    run to the table of an uninterrupted one. One method sleeps 50 ms a call in the killed run
+    (``STOPPABLE_RUN``), so the kill lands while the workers compute."""
+    env = slow_plugin_env(tmp_path / "plugin")
     out = tmp_path / "killed"
     process = subprocess.Popen(
-        [*CLI, *RUN, "--executor", "dask", "--jobs", "2", "--out", str(out)],
-        env=ENV,
+        [*CLI, *STOPPABLE_RUN, "--executor", "dask", "--jobs", "2", "--out", str(out)],
+        env={**env, "DIFFBENCH_TEST_SLOW": "1"},
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
     )
@@ -112,8 +115,8 @@ def test_killing_the_client_mid_run_loses_nothing_and_the_rerun_completes(tmp_pa
     stored = len(Store(out / "store").cells.records)
     assert 0 < stored < 90, "the kill should land mid-run"
     time.sleep(0.5)
-    assert main([*RUN, "--out", str(out), "--executor", "dask", "--jobs", "2"]) == 0
-    assert main([*RUN, "--out", str(tmp_path / "full")]) == 0
+    finish([*STOPPABLE_RUN, "--executor", "dask", "--jobs", "2"], out, env)
+    finish(STOPPABLE_RUN, tmp_path / "full", env)
     full = (tmp_path / "full" / "paper-signal" / "rmse.csv").read_text()
     assert (out / "paper-signal" / "rmse.csv").read_text() == full
     keys = _rows(out / "store", "SELECT key FROM cells")

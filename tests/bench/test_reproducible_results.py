@@ -45,6 +45,7 @@ def _needs_checkout_make_and_the_console_script() -> Path:
 
 
 @pytest.mark.slow
+@pytest.mark.kernels
 @pytest.mark.parametrize("kernel", KERNELS)
 def test_the_paper_suite_under_another_blas_kernel_writes_the_committed_files(kernel, tmp_path):
     bin_dir = _needs_checkout_make_and_the_console_script()

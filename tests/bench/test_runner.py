@@ -19,6 +19,7 @@ from diffbench.bench.core.roles import Role
 from diffbench.bench.core.store import STORE_FILE, Store
 from diffbench.bench.report import tables
 from diffbench.bench.tasks import available_tasks, get_task
+from tests.bench.killing import STOPPABLE_RUN, finish, slow_plugin_env
 
 ROOT = Path(__file__).resolve().parents[2]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
@@ -266,52 +267,17 @@ def _wait_for_cells(directory: Path, count: int, process) -> None:
     raise AssertionError("no cells stored in time")
 
 
-SLOW_PLUGIN = """
-import os
-import time
-
-from diffbench.methods import register
-from diffbench.methods.savitzky_golay import SavitzkyGolay
-
-
-@register("slow.savitzky_golay")
-class SlowSavitzkyGolay(SavitzkyGolay):
-    \"\"\"Savitzky-Golay that takes 50 ms more a call while $DIFFBENCH_TEST_SLOW is set, so that
-    a run can be stopped while its workers are busy.\"\"\"
-
-    def _estimate(self, x, dt, orders):
-        if os.environ.get("DIFFBENCH_TEST_SLOW"):
-            time.sleep(0.05)
-        return super()._estimate(x, dt, orders)
-"""
-
-RUN = [
-    "run",
-    "paper-signal",
-    "--seeds",
-    "30",
-    "--methods",
-    "finite_difference,slow.savitzky_golay,butterworth",
-    "--plugin",
-    "slow_methods",
-    "--no-progress",
-]
-
-
 @pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="reads /proc (Linux)")
 @pytest.mark.parametrize("stop", [signal.SIGTERM, signal.SIGKILL])
 def test_stopping_a_jobs_run_leaves_no_worker_and_the_rerun_completes(tmp_path, stop):
     """SIGTERM (exit 143) or SIGKILL of `run --jobs 2` mid-run: no worker process survives,
     every finished cell is kept, and the same command completes the run to the table of an
-    uninterrupted one. One method sleeps 50 ms a call in the stopped run (at least 0.75 s of
-    work for each of the 2 workers), so the stop lands while the workers compute."""
-    plugin = tmp_path / "plugin"
-    plugin.mkdir()
-    (plugin / "slow_methods.py").write_text(SLOW_PLUGIN)
-    env = {**ENV, "PYTHONPATH": f"{ROOT}{os.pathsep}{plugin}"}
+    uninterrupted one. One method sleeps 50 ms a call in the stopped run (``STOPPABLE_RUN``),
+    so the stop lands while the workers compute."""
+    env = slow_plugin_env(tmp_path / "plugin")
     out = tmp_path / "killed"
     process = subprocess.Popen(
-        [*CLI, *RUN, "--jobs", "2", "--out", str(out)],
+        [*CLI, *STOPPABLE_RUN, "--jobs", "2", "--out", str(out)],
         env={**env, "DIFFBENCH_TEST_SLOW": "1"},
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
@@ -330,11 +296,8 @@ def test_stopping_a_jobs_run_leaves_no_worker_and_the_rerun_completes(tmp_path, 
     assert not [pid for pid in workers if _alive(pid)], "orphaned workers"
     stored = len(Store(out / "store").cells.records)
     assert 0 < stored < 90, "the stop should land mid-run"
-    for directory in (out, tmp_path / "full"):
-        finished = subprocess.run(
-            [*CLI, *RUN, "--out", str(directory)], env=env, capture_output=True, timeout=300
-        )
-        assert finished.returncode == 0, finished.stderr
+    finish(STOPPABLE_RUN, out, env)
+    finish(STOPPABLE_RUN, tmp_path / "full", env)
     full = (tmp_path / "full" / "paper-signal" / "rmse.csv").read_text()
     assert (out / "paper-signal" / "rmse.csv").read_text() == full
     assert "slow.savitzky_golay" in full
