@@ -310,3 +310,54 @@ def jacobi_weighted_fit_at(
         row = _evaluation(r, np.array([(at - centre) / half]), degree, order)
         out[k] = (row @ (q.T @ (root[:, np.newaxis] * flat[first:last])))[0] / half**order
     return out.reshape(x.shape)
+
+
+def kernel_weighted_fit_at(
+    x: np.ndarray,
+    times: np.ndarray,
+    at: np.ndarray,
+    reach_s: float,
+    degree: int,
+    order: int,
+    kernel,
+) -> np.ndarray:
+    r"""Local polynomial regression with a kernel centred on each evaluation time: at each
+    :math:`a` of ``at`` (indices into ``times``), the polynomial of ``degree`` fitted to the
+    samples within ``reach_s`` of :math:`t_a` that the record holds (the window truncated at
+    the record's ends, not moved), by least squares weighted with the kernel of the offset and
+    the span of time each sample stands for (:func:`sample_spans`), differentiated at
+    :math:`t_a`:
+
+    .. math:: \hat p_a = \arg\min_{\deg p \le d} \sum_{|t_j - t_a| \le r}
+        K(t_j - t_a)\, s_j\, (x_j - p(t_j - t_a))^2, \qquad \hat x^{(n)}_a = \hat p_a^{(n)}(0)
+
+    ``kernel`` maps offsets in seconds to weights. Near a record's end the truncated window
+    makes this the boundary-corrected estimate of local polynomial regression (J. Fan, I.
+    Gijbels, *Local Polynomial Modelling and Its Applications*, Chapman & Hall, 1996, sec.
+    3.2.5): exact on polynomials of ``degree`` wherever it is evaluated. The fit is in the
+    Legendre basis of the offset over ``reach_s`` by QR, as :func:`local_polynomial_weights`.
+    Returns the estimates at ``at`` (time on axis 0).
+
+    Raises ``ValueError`` naming ``t`` when a window holds fewer than ``degree + 1`` samples.
+    """
+    n = times.size
+    flat = x.reshape(n, -1)
+    spans = sample_spans(times)
+    slack = 1e-9 * reach_s
+    out = np.empty((len(at), flat.shape[1]))
+    for row, index in enumerate(at):
+        centre = times[index]
+        first = int(np.searchsorted(times, centre - reach_s - slack, side="left"))
+        last = int(np.searchsorted(times, centre + reach_s + slack, side="right"))
+        if last - first < degree + 1:
+            raise ValueError(
+                f"`t` has {last - first} samples within {reach_s!r} s of t={float(centre)!r} s; "
+                f"a local polynomial of degree {degree} needs {degree + 1}: use a wider kernel"
+            )
+        offsets = times[first:last] - centre
+        root = np.sqrt(kernel(offsets) * spans[first:last])
+        u = np.clip(offsets / reach_s, -1.0, 1.0)
+        q, r = np.linalg.qr(legendre.legvander(u, degree) * root[:, np.newaxis])
+        evaluate = _evaluation(r, np.array([0.0]), degree, order)
+        out[row] = (evaluate @ (q.T @ (root[:, np.newaxis] * flat[first:last])))[0]
+    return out / reach_s**order

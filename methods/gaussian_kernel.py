@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 
+from diffbench.methods._ends import mask_untrusted, trusted_times
+from diffbench.methods._local_poly import kernel_weighted_fit_at
 from diffbench.methods._registry import FirMethod, Preset, param, register
 from diffbench.methods._validation import MAX_WINDOW_STEPS
 
@@ -47,8 +49,22 @@ def gaussian_kernel_taps(order: int, sigma_s: float, dt: float) -> np.ndarray:
 @register("gaussian_kernel")
 class GaussianKernel(FirMethod):
     """Gaussian kernel smoother, differentiated analytically (see
-    :func:`gaussian_kernel_taps`). Linear, time-symmetric; the first and last
-    ⌈4σ/Δt⌉ samples are masked.
+    :func:`gaussian_kernel_taps`). Linear, time-symmetric.
+
+    The taps are the Gaussian-weighted least-squares polynomial of degree n (the derivative's
+    order) differentiated at the centre, which by symmetry equals the fit of degree n + 1.
+    Where the kernel's reach ⌈4σ/Δt⌉ sticks out of the record, each of the first and last
+    samples gets that fit of degree n + 1 on the samples the truncated kernel covers, centred
+    on the sample itself: the boundary-corrected kernel of local polynomial regression (Fan &
+    Gijbels 1996, sec. 3.2.5; :func:`methods._local_poly.kernel_weighted_fit_at`), exact on
+    polynomials of degree n + 1 there too. An end sample stays valid only where its response
+    is within twice the interior's error over the band the interior claims and its noise gain
+    within twice the interior's (:mod:`methods._ends`); the others are masked. On the paper
+    signal over 1.237 s (20 seeds, preset) the boundary estimates of x and ẋ are within 1.9
+    and 2.7 times the interior's RMS error at every sample, those of ẍ up to 17 times at the
+    last sample (the one-sided cubic's noise): the check keeps the first.
+    Irregular time stamps are taken as they are: the same fit centred on each sample, each
+    sample weighted also by the span of time it stands for.
 
     Parameters
     ----------
@@ -57,7 +73,8 @@ class GaussianKernel(FirMethod):
 
     References
     ----------
-    Lindeberg, IEEE Trans. PAMI 12 (1990).
+    Lindeberg, IEEE Trans. PAMI 12 (1990); J. Fan, I. Gijbels, *Local Polynomial Modelling
+    and Its Applications*, Chapman & Hall (1996).
     """
 
     sigma_s: float = param(
@@ -83,6 +100,7 @@ class GaussianKernel(FirMethod):
         ),
     }
     reference = "Lindeberg (1990)"
+    time_stamps = "native"
 
     def _half_width(self, dt: float) -> int:
         steps = self.sigma_s / dt
@@ -106,3 +124,46 @@ class GaussianKernel(FirMethod):
     def taps(self, order: int, dt: float) -> np.ndarray:
         self._half_width(dt)
         return gaussian_kernel_taps(order, self.sigma_s, dt)
+
+    def end_reach(self, dt: float) -> int | None:
+        return self._half_width(dt)
+
+    def _kernel(self, offset_s: np.ndarray) -> np.ndarray:
+        return np.exp(-0.5 * (offset_s / self.sigma_s) ** 2)
+
+    def _estimate(self, x, dt, orders):
+        central, _ = super()._estimate(x, dt, orders)
+        n, half_width = x.shape[0], self._half_width(dt)
+        window = 2 * half_width + 1  # min_samples: the record holds a whole kernel
+        times = np.arange(window) * dt
+        near = np.arange(half_width)  # the samples the kernel overhangs, from each end
+        values = {}
+        for order in orders:
+            fit = {"reach_s": half_width * dt, "degree": order + 1, "order": order}
+            y = central[order].reshape(n, -1).copy()
+            y[near] = kernel_weighted_fit_at(x[:window], times, near, kernel=self._kernel, **fit)
+            y[n - half_width :] = kernel_weighted_fit_at(
+                x[n - window :], times, window - half_width + near, kernel=self._kernel, **fit
+            )
+            values[order] = y.reshape(x.shape)
+        valid = {order: np.isfinite(values[order]).reshape(n, -1).all(axis=1) for order in orders}
+        return values, valid
+
+    def _estimate_away_from_ends(self, x, dt, orders):
+        # the central filter alone (the ends NaN): what a tuning's interior loss reads
+        return super()._estimate(x, dt, orders)
+
+    def _estimate_at(self, x, times, orders):
+        step = (times[-1] - times[0]) / (times.size - 1)
+        reach_s = self._half_width(step) * step  # the uniform grid's reach at the mean step
+        everywhere = np.arange(times.size)
+        values = {
+            order: kernel_weighted_fit_at(
+                x, times, everywhere, reach_s, order + 1, order, self._kernel
+            ).reshape(x.shape)
+            for order in orders
+        }
+        valid = trusted_times(self, times, step, orders)
+        for order in orders:
+            values[order] = mask_untrusted(values[order], valid[order])
+        return values, valid
