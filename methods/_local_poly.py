@@ -254,64 +254,6 @@ def sample_spans(times: np.ndarray) -> np.ndarray:
     return spans
 
 
-def jacobi_weighted_fit_at(
-    x: np.ndarray,
-    times: np.ndarray,
-    window_s: float,
-    degree: int,
-    order: int,
-    kappa: float,
-    mu: float,
-    floor: float,
-) -> np.ndarray:
-    r"""The Jacobi estimate of ``order`` at irregular ``times``: at each time :math:`t_k`, the
-    polynomial of ``degree`` fitted to the samples of the window :math:`[c - h, c + h]`
-    (:math:`h` = ``window_s``/2; centred on :math:`t_k`, moved inside the record where it
-    would stick out, as the shifted end windows of the uniform filter) by least squares
-    weighted with the Jacobi weight and the span of time each sample stands for,
-    differentiated at :math:`t_k`:
-
-    .. math:: \hat p_k = \arg\min_{\deg p \le d} \sum_{|t_j - c| \le h}
-        (1 - \tau_j)^{\mu} (1 + \tau_j)^{\kappa}\, s_j\, (x_j - p(\tau_j))^2, \qquad
-        \tau_j = \frac{t_j - c}{h}, \qquad \hat x^{(n)}_k = h^{-n} \hat p_k^{(n)}(\tau(t_k))
-
-    with :math:`s_j` from :func:`sample_spans` (a cluster of samples weighs what the span of
-    time it covers weighs) and exponents below 0 taken as 0. On a uniform grid the spans are
-    equal and this is the uniform filter of the ``least_squares`` rule, its shifted ends
-    included (:func:`end_evaluators`); on any stamps it is exact on polynomials of
-    ``degree``. The fit is in the Legendre basis by QR, as :func:`local_polynomial_weights`.
-
-    Raises ``ValueError`` naming ``t`` when a window holds fewer than ``degree + 1`` samples
-    whose Jacobi weight exceeds ``floor`` times the window's largest (a gap longer than the
-    window). The caller checks that the record spans ``window_s``.
-    """
-    n = times.size
-    flat = x.reshape(n, -1)
-    half = window_s / 2
-    slack = 1e-9 * window_s
-    spans = sample_spans(times)
-    out = np.empty(flat.shape)
-    for k, at in enumerate(times):
-        low = min(max(at - half, times[0]), times[-1] - window_s)
-        first = int(np.searchsorted(times, low - slack, side="left"))
-        last = int(np.searchsorted(times, low + window_s + slack, side="right"))
-        centre = low + half
-        tau = np.clip((times[first:last] - centre) / half, -1.0, 1.0)
-        jacobi = (1 - tau) ** max(mu, 0.0) * (1 + tau) ** max(kappa, 0.0)
-        carrying = np.count_nonzero(jacobi > jacobi.max() * floor)
-        if carrying < degree + 1:
-            raise ValueError(
-                f"`t` has {carrying} samples that carry weight in the window of {window_s!r} s "
-                f"around t={float(at)!r} s; a Jacobi estimate of degree {degree} needs "
-                f"{degree + 1}: use a longer window or a lower `q`"
-            )
-        root = np.sqrt(jacobi * spans[first:last])
-        q, r = np.linalg.qr(legendre.legvander(tau, degree) * root[:, np.newaxis])
-        row = _evaluation(r, np.array([(at - centre) / half]), degree, order)
-        out[k] = (row @ (q.T @ (root[:, np.newaxis] * flat[first:last])))[0] / half**order
-    return out.reshape(x.shape)
-
-
 def kernel_weighted_fit_at(
     x: np.ndarray,
     times: np.ndarray,

@@ -2,18 +2,12 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
 
-from diffbench.methods._ends import mask_untrusted, trusted_times
 from diffbench.methods._fir import apply_central_firs
-from diffbench.methods._local_poly import (
-    apply_fir_with_ends,
-    end_evaluators,
-    jacobi_weighted_fit_at,
-)
+from diffbench.methods._local_poly import apply_fir_with_ends, end_evaluators
 from diffbench.methods._registry import FirMethod, Preset, param, register
 from diffbench.methods._validation import MAX_WINDOW_STEPS, DeferredValueError
 from diffbench.methods.jacobi_kernel import (
@@ -67,10 +61,6 @@ class Jacobi(FirMethod):
     response is within twice the interior's error over the band the interior claims
     (:mod:`methods._ends`); the others are masked. ``ends="central"`` masks all of them (the
     paper's figures).
-    Irregular time stamps (``t=``) are taken as they are: each estimate is the derivative of
-    the same weighted least-squares fit on the samples of its window, each sample weighted
-    also by the span of time it stands for (:meth:`_estimate_at`); on a uniform grid that is
-    the ``least_squares`` rule with its shifted ends.
     Exact on polynomials of degree n+q (n+q+1 for κ = μ with even q) with the
     ``least_squares`` rule; the ``trapezoid`` and ``linear`` rules approximate the continuous
     filter (O(Ts²) for ``linear``; far better for ``trapezoid`` when min(κ, μ) ≥ 2).
@@ -192,7 +182,6 @@ class Jacobi(FirMethod):
         ),
     }
     reference = "Liu et al. (2011); Guo et al., AIM 2015"
-    time_stamps = "native"
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -369,47 +358,6 @@ class Jacobi(FirMethod):
         if self.rule != "least_squares":
             return None
         return self._fit_degree(order)
-
-    def _estimate_at(self, x, times, orders):
-        """Irregular time stamps, natively: each estimate is the derivative of the weighted
-        least-squares fit the ``least_squares`` rule stands for, on the samples of its window
-        as they were taken (:func:`methods._local_poly.jacobi_weighted_fit_at`), whatever
-        ``rule`` (the rules are quadratures of the uniform grid). ``ends="shifted"``: the
-        end estimates are trusted over the same spans of time as on the uniform grid whose
-        step is nearest the mean step with the order's window an even number of steps
-        (:func:`methods._ends.trusted_times`); ``"central"``: only the samples whose centred
-        window lies inside the record."""
-        span = times[-1] - times[0]
-        mean_step = span / (times.size - 1)
-        values, valid = {}, {}
-        for order in orders:
-            name, window = self._window(order)
-            if span < window:
-                raise ValueError(
-                    f"`t` spans {span!r} s, shorter than `{name}`={window!r} s; use a "
-                    "shorter window or a longer record"
-                )
-            values[order] = jacobi_weighted_fit_at(
-                x,
-                times,
-                window,
-                self._fit_degree(order),
-                order,
-                self.kappa,
-                self.mu,
-                WEIGHT_FLOOR,
-            )
-            if self.ends == "central":
-                slack = 1e-9 * window
-                valid[order] = (times - window / 2 >= times[0] - slack) & (
-                    times + window / 2 <= times[-1] + slack
-                )
-            else:
-                grid_step = window / max(2, 2 * round(window / (2 * mean_step)))
-                alike = dataclasses.replace(self, window_s=window, accel_window_s=window)
-                valid[order] = trusted_times(alike, times, grid_step, (order,))[order]
-            values[order] = mask_untrusted(values[order], valid[order])
-        return values, valid
 
 
 def _edge(works, inside: float, outside: float) -> float:

@@ -1,6 +1,6 @@
 """Time stamps ``t=``: uniform stamps take the uniform path, irregular ones are handled natively
-(finite differences, Savitzky-Golay, Jacobi, Kalman, smoothing spline) or by resampling (the
-others), and PyNumDiff's irregular-step test."""
+(finite differences, Savitzky-Golay, the Gaussian kernel, Kalman, smoothing spline) or by
+resampling (the others), and PyNumDiff's irregular-step test."""
 
 import numpy as np
 import pytest
@@ -79,167 +79,6 @@ def test_savitzky_golay_at_irregular_times_is_exact_on_its_degree(degree):
         )
 
 
-JACOBI_LEAST_SQUARES = {
-    "rule": "least_squares",
-    "window_s": 0.05,
-    "accel_window_s": 0.08,
-    "q": 4,
-    "kappa": 2.0,
-    "mu": 3.0,
-}
-"""A lopsided Jacobi design (κ ≠ μ) with two windows, on the rule the irregular path stands for."""
-
-
-def _jacobi_fit(method, x, t, order):
-    """The Jacobi estimate of ``order`` at every one of the stamps ``t``, before the ends check
-    masks any (the pure function of the irregular path)."""
-    from diffbench.methods._local_poly import jacobi_weighted_fit_at
-    from diffbench.methods.jacobi import WEIGHT_FLOOR
-
-    _, window = method._window(order)
-    degree = method._fit_degree(order)
-    return jacobi_weighted_fit_at(
-        x, t, window, degree, order, method.kappa, method.mu, WEIGHT_FLOOR
-    )
-
-
-def _jacobi_rounding_bound(method, times, order, x) -> float:
-    """What rounding may move a Jacobi estimate of ``order`` by: eps times the condition of the
-    worst window's weighted Legendre basis, times the sum of the magnitudes of that window's
-    estimate weights, times the largest |x| (an error bound of a least-squares solve by QR
-    applied to a dot product), with a factor 10 for the accumulation over the window."""
-    from numpy.polynomial import legendre
-
-    from diffbench.methods._local_poly import sample_spans
-
-    _, window = method._window(order)
-    degree, half = method._fit_degree(order), window / 2
-    spans = sample_spans(times)
-    worst_condition = worst_weights = 0.0
-    for at in (times[0], times[times.size // 2], times[-1]):
-        low = min(max(at - half, times[0]), times[-1] - window)
-        inside = (times >= low - 1e-9 * window) & (times <= low + window + 1e-9 * window)
-        tau = np.clip((times[inside] - low - half) / half, -1, 1)
-        root = np.sqrt((1 - tau) ** method.mu * (1 + tau) ** method.kappa * spans[inside])
-        basis = legendre.legvander(tau, degree) * root[:, None]
-        worst_condition = max(worst_condition, np.linalg.cond(basis))
-        fit = np.linalg.pinv(basis) * root[None, :]  # coefficients from the window's samples
-        derivative = legendre.legvander(np.array([(at - low - half) / half]), degree)
-        rows = legendre.legder(np.eye(degree + 1), order) if order else np.eye(degree + 1)
-        evaluate = derivative[:, : rows.shape[0]] @ rows
-        worst_weights = max(worst_weights, np.abs(evaluate @ fit).sum() / half**order)
-    return 10 * np.finfo(float).eps * worst_condition * worst_weights * np.max(np.abs(x))
-
-
-def test_jacobi_at_uniform_times_is_its_least_squares_filter_with_its_shifted_ends():
-    """The native path itself (not the uniform shortcut) on uniform times: the weighted fits
-    are the uniform filter's (central taps and shifted end evaluators) to rounding, and the
-    same samples are trusted."""
-    dt = 0.001
-    t = np.arange(400) * dt
-    x = np.sin(2 * np.pi * 3 * t) + 0.1 * np.cos(2 * np.pi * 17 * t)
-    method = methods.get("jacobi", **JACOBI_LEAST_SQUARES)
-    uniform = method(x, dt)
-    values, valid = method._estimate_at(x, t, (0, 1, 2))
-    for order in (0, 1, 2):
-        np.testing.assert_array_equal(valid[order], uniform.valid[order])
-        assert valid[order].mean() > 0.85
-        bound = _jacobi_rounding_bound(method, t, order, x)
-        keep = valid[order]
-        np.testing.assert_allclose(values[order][keep], uniform[order][keep], rtol=0, atol=bound)
-
-
-def test_jacobi_at_irregular_times_is_exact_on_its_degree_at_every_sample():
-    """Jittered stamps: each order's estimate is exact on polynomials of its fit degree
-    (n + q) at every sample, the shifted ends included, and the trusted ends are those of the
-    uniform grid of the same span."""
-    t = _jittered(n=401, step=0.001, seed=5)
-    method = methods.get("jacobi", **JACOBI_LEAST_SQUARES)
-    values = {}
-    for order in (0, 1, 2):
-        degree = method._fit_degree(order)
-        assert method.exact_degree(order) == degree
-        coefficients = np.random.default_rng(degree).standard_normal(degree + 1)
-        poly = np.polynomial.Polynomial(coefficients, domain=[0, 0.4], window=[-1, 1])
-        x = poly(t)
-        values[order] = _jacobi_fit(method, x, t, order)
-        expected = poly.deriv(order)(t) if order else x
-        bound = _jacobi_rounding_bound(method, t, order, x)
-        assert bound < 1e-6 * np.max(np.abs(expected))  # a bound that can fail
-        np.testing.assert_allclose(values[order], expected, rtol=0, atol=bound)
-    estimate = method(np.sin(5 * t), t=t)
-    for order in (0, 1, 2):
-        grid = method(np.sin(5 * t[0] + 5 * np.arange(401) * 0.001), 0.001)
-        assert abs(int(estimate.valid[order].sum()) - int(grid.valid[order].sum())) <= 2
-
-
-def test_jacobi_at_irregular_times_against_numpy_s_weighted_polynomial_fit():
-    """An independent implementation of the same estimate at a few samples (ends, middle):
-    ``numpy.polynomial.Polynomial.fit`` with the square roots of the Jacobi weight times each
-    sample's span of time, on the window's samples, differentiated at the sample."""
-    from diffbench.methods._local_poly import sample_spans
-
-    t = _jittered(n=301, step=0.002, seed=9)
-    x = np.sin(9 * t) + 0.05 * np.random.default_rng(1).standard_normal(t.size)
-    method = methods.get("jacobi", kappa=1.5, mu=4.0, q=3, window_s=0.1, accel_window_s=0.14)
-    spans = sample_spans(t)
-    for order in (0, 1, 2):
-        values = _jacobi_fit(method, x, t, order)
-        _, window = method._window(order)
-        half = window / 2
-        bound = _jacobi_rounding_bound(method, t, order, x)
-        for k in (0, 3, 20, 150, 290, 300):
-            low = min(max(t[k] - half, t[0]), t[-1] - window)
-            inside = (t >= low - 1e-9 * window) & (t <= low + window + 1e-9 * window)
-            tau = np.clip((t[inside] - low - half) / half, -1, 1)
-            weight = (1 - tau) ** method.mu * (1 + tau) ** method.kappa * spans[inside]
-            fit = np.polynomial.Polynomial.fit(
-                t[inside], x[inside], method._fit_degree(order), w=np.sqrt(weight)
-            )
-            assert abs(values[k] - fit.deriv(order)(t[k])) <= bound, (order, k)
-
-
-def test_jacobi_at_the_paper_preset_takes_jittered_and_gappy_stamps_as_they_are():
-    """The paper's design on 1 ms records with 30 % jitter or 10 % of the samples lost, time
-    stamps only (no nominal step): estimated natively (resampling refused the jittered record
-    without ``dt``), and in the interior at least as accurate as resampling onto the nominal
-    grid (mean RMSE over 5 seeds; measured on 10 seeds: ẋ 4.67 against 4.77, ẍ 511 against
-    525 with lost samples, within 1 % either way with jitter)."""
-    from diffbench import signals
-    from diffbench.methods._time_stamps import from_grid, to_grid
-
-    method = methods.preset("jacobi", "paper-signal")
-    for name, margin in (
-        ("grid-gaussian-0.2-1ms-dropout", 1.0),
-        ("grid-gaussian-0.2-1ms-jitter", 1.02),
-    ):
-        errors = {1: [], 2: []}
-        for seed in range(5):
-            realisation = signals.get_scenario(name).realise(seed)
-            t, interior = realisation.t, realisation.interior
-            native = method(realisation.x, t=t)
-            grid, step = uniform_grid(t, 0.001)
-            on_grid = method(to_grid(realisation.x, t, grid), step)
-            for order in (1, 2):
-                assert np.isfinite(native[order][interior]).all()
-                back, _ = from_grid(on_grid[order], on_grid.valid[order], grid, t)
-                truth = realisation.truth[order][interior]
-                errors[order].append(
-                    [
-                        np.sqrt(np.mean((native[order][interior] - truth) ** 2)),
-                        np.sqrt(np.mean((back[interior] - truth) ** 2)),
-                    ]
-                )
-        for order, pairs in errors.items():
-            native_rmse, resampled_rmse = np.mean(pairs, axis=0)
-            assert native_rmse <= margin * resampled_rmse, (
-                name,
-                order,
-                native_rmse,
-                resampled_rmse,
-            )
-
-
 @pytest.mark.parametrize("end_offset_s", [0.0, 0.0013])
 def test_resampled_methods_are_exact_on_cubics_through_the_cubic_spline(end_offset_s):
     """Resampling interpolates by the not-a-knot cubic spline, exact on cubics; the SINDy
@@ -271,8 +110,9 @@ def test_resampled_methods_are_exact_on_cubics_through_the_cubic_spline(end_offs
 
 def test_native_methods_are_the_ones_that_say_so():
     native = {n for n in methods.available() if methods.get(n).time_stamps == "native"}
-    assert {"finite_difference", "savitzky_golay", "jacobi", "kalman", "smoothing_spline"} <= native
-    assert "spectral" not in native
+    assert {"finite_difference", "savitzky_golay", "kalman", "smoothing_spline"} <= native
+    assert "gaussian_kernel" in native
+    assert "jacobi" not in native and "spectral" not in native
 
 
 def test_fornberg_weights_are_the_central_weights_on_uniform_nodes_and_exact_elsewhere():
