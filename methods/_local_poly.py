@@ -284,22 +284,41 @@ def kernel_weighted_fit_at(
     """
     n = times.size
     flat = x.reshape(n, -1)
+    at = np.asarray(at, dtype=np.intp)
     spans = sample_spans(times)
     slack = 1e-9 * reach_s
-    out = np.empty((len(at), flat.shape[1]))
-    for row, index in enumerate(at):
-        centre = times[index]
-        first = int(np.searchsorted(times, centre - reach_s - slack, side="left"))
-        last = int(np.searchsorted(times, centre + reach_s + slack, side="right"))
-        if last - first < degree + 1:
-            raise ValueError(
-                f"`t` has {last - first} samples within {reach_s!r} s of t={float(centre)!r} s; "
-                f"a local polynomial of degree {degree} needs {degree + 1}: use a wider kernel"
-            )
-        offsets = times[first:last] - centre
-        root = np.sqrt(kernel(offsets) * spans[first:last])
+    first = np.searchsorted(times, times[at] - reach_s - slack, side="left")
+    last = np.searchsorted(times, times[at] + reach_s + slack, side="right")
+    counts = last - first
+    if at.size and counts.min() < degree + 1:
+        worst = int(np.argmin(counts))
+        raise ValueError(
+            f"`t` has {counts[worst]} samples within {reach_s!r} s of "
+            f"t={float(times[at[worst]])!r} s; a local polynomial of degree {degree} needs "
+            f"{degree + 1}: use a wider kernel"
+        )
+    evaluate = _derivative_rows_at(0.0, degree, order)[0]  # d^n/du^n of P_0..P_d at u = 0
+    out = np.empty((at.size, flat.shape[1]))
+    width = int(counts.max()) if at.size else 0
+    chunk = max(1, KERNEL_FIT_CHUNK_ELEMENTS // max(1, width * (degree + 1)))
+    for start in range(0, at.size, chunk):
+        rows = slice(start, start + chunk)
+        # each window's samples, padded to the widest with weight 0 (rows of zeros change no fit)
+        offsets_in_window = np.arange(width)
+        index = np.minimum(first[rows, None] + offsets_in_window, n - 1)
+        inside = offsets_in_window < counts[rows, None]
+        offsets = times[index] - times[at[rows], None]
+        weight = np.where(inside, kernel(offsets) * spans[index], 0.0)
+        root = np.sqrt(weight)
         u = np.clip(offsets / reach_s, -1.0, 1.0)
-        q, r = np.linalg.qr(legendre.legvander(u, degree) * root[:, np.newaxis])
-        evaluate = _evaluation(r, np.array([0.0]), degree, order)
-        out[row] = (evaluate @ (q.T @ (root[:, np.newaxis] * flat[first:last])))[0]
+        q, r = np.linalg.qr(legendre.legvander(u, degree) * root[..., None])
+        # the estimate is e^T R^{-1} Q^T sqrt(w) x, with e the derivative's row at u = 0
+        z = np.linalg.solve(np.swapaxes(r, 1, 2), np.broadcast_to(evaluate, r.shape[:2])[..., None])
+        projected = np.swapaxes(q, 1, 2) @ (root[..., None] * flat[index])
+        out[rows] = (np.swapaxes(z, 1, 2) @ projected)[:, 0]
     return out / reach_s**order
+
+
+KERNEL_FIT_CHUNK_ELEMENTS = 2_000_000
+"""How many basis entries (windows x samples x coefficients) :func:`kernel_weighted_fit_at`
+factors at once: about 16 MB a block."""
