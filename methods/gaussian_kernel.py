@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from diffbench.methods._ends import mask_untrusted, trusted_times
-from diffbench.methods._local_poly import kernel_weighted_fit_at
+from diffbench.methods._local_poly import kernel_end_fits, kernel_weighted_fit_at
 from diffbench.methods._registry import FirMethod, Preset, param, register
 from diffbench.methods._validation import MAX_WINDOW_STEPS
 
@@ -134,17 +134,16 @@ class GaussianKernel(FirMethod):
     def _estimate(self, x, dt, orders):
         central, _ = super()._estimate(x, dt, orders)
         n, half_width = x.shape[0], self._half_width(dt)
-        window = 2 * half_width + 1  # min_samples: the record holds a whole kernel
-        times = np.arange(window) * dt
-        near = np.arange(half_width)  # the samples the kernel overhangs, from each end
+        weights = self._kernel(np.arange(-half_width, half_width + 1) * dt)
+        flat = x.reshape(n, -1)
         values = {}
         for order in orders:
-            fit = {"reach_s": half_width * dt, "degree": order + 1, "order": order}
+            fit = (half_width, dt, order + 1, order, weights)
             y = central[order].reshape(n, -1).copy()
-            y[near] = kernel_weighted_fit_at(x[:window], times, near, kernel=self._kernel, **fit)
-            y[n - half_width :] = kernel_weighted_fit_at(
-                x[n - window :], times, window - half_width + near, kernel=self._kernel, **fit
-            )
+            y[:half_width] = kernel_end_fits(flat, *fit)
+            # the last samples are the first of the record reversed in time, whose n-th
+            # derivative is (-1)^n times the record's
+            y[n - half_width :] = (-1) ** order * kernel_end_fits(flat[::-1], *fit)[::-1]
             values[order] = y.reshape(x.shape)
         valid = {order: np.isfinite(values[order]).reshape(n, -1).all(axis=1) for order in orders}
         return values, valid
