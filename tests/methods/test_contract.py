@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from diffbench import methods
+from diffbench.methods import gaussian_process
 from tests.methods.conftest import method_cases
 
 DT = 1e-3
@@ -218,4 +219,17 @@ def test_linear_methods_are_linear(name, params, x, y, a, b):
         valid = combined.valid[order]
         expected = a * dx[order][valid] + b * dy[order][valid]
         scale = (abs(a) + abs(b) + 1) * 10 * DT**-order
-        np.testing.assert_allclose(combined[order][valid], expected, rtol=0, atol=1e-10 * scale)
+        tolerance = max(1e-10, _solver_error(method))
+        np.testing.assert_allclose(combined[order][valid], expected, rtol=0, atol=tolerance * scale)
+
+
+def _solver_error(method) -> float:
+    """The relative error of an iterative solve inside ``method`` (0 for a direct one): the
+    Gaussian processes solve (K + r²I) by conjugate gradients to a relative residual of
+    ``SOLVER_TOLERANCE``, which bounds the error by that times the condition number, at most
+    1 + 2.5 ℓ/(Δt r²) (``methods.gaussian_process``). Hypothesis found a case at ℓ = 300 Δt,
+    r = 0.01 (condition 7.5e6) 2.4e-10 off, above the 1e-10 the other methods meet."""
+    if method.name != "gaussian_process":
+        return 0.0
+    condition = 1 + 2.5 * method.length_scale_s / (DT * method.noise_ratio**2)
+    return condition * gaussian_process.SOLVER_TOLERANCE
