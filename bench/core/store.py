@@ -40,6 +40,7 @@ import dataclasses
 import errno
 import os
 import sqlite3
+import time
 import uuid
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from pathlib import Path
@@ -74,6 +75,8 @@ from diffbench.bench.core.records import (
     tunings_frame,
     utc_now,
 )
+from diffbench.bench.core.sqlite_errors import LOCK_TIMEOUT_S
+from diffbench.bench.core.sqlite_errors import os_error as _os_error
 
 __all__ = [  # the records' names that callers import from here
     "ROLE_COLUMNS",
@@ -90,7 +93,6 @@ __all__ = [  # the records' names that callers import from here
 VERSION = 2
 """The version of the store's format: 1 was the JSON Lines files, 2 this SQLite schema."""
 STORE_FILE = "diffbench.sqlite"
-LOCK_TIMEOUT_S = 600.0
 _SQLITE_HEADER = b"SQLite format 3\x00"
 
 
@@ -228,24 +230,46 @@ class Store:
             with open(self.path, "rb") as handle:
                 if handle.read(len(_SQLITE_HEADER)) != _SQLITE_HEADER:
                     raise self._refuse("is not a diffbench store (not an SQLite database)")
-        try:
-            connection = self._connection()
-            if existing:
-                self._check(connection)
-            mode = connection.execute("PRAGMA journal_mode=WAL").fetchone()[0]
-            if mode != "wal":
-                raise OSError(errno.EIO, f"cannot use WAL mode (journal_mode={mode})", self.path)
-            with self._transaction() as connection:
-                found = connection.execute(
-                    "SELECT name FROM sqlite_master WHERE type = 'table' AND name = 'meta'"
-                ).fetchone()
-                if found is None:
-                    self._create(connection)
-        except sqlite3.DatabaseError as error:
-            self.close()
-            if isinstance(error, sqlite3.OperationalError):
-                raise _os_error(error, self.path) from None
-            raise self._refuse(f"is damaged, SQLite cannot read it ({error})") from None
+        deadline = time.monotonic() + LOCK_TIMEOUT_S
+        pause = 0.01
+        while True:
+            try:
+                self._set_up(existing)
+                return
+            except sqlite3.OperationalError as error:
+                # a fresh file is still in rollback-journal mode: two openers that both read it
+                # and then ask for WAL (an exclusive lock) deadlock, and SQLite answers one of
+                # them "locked" at once instead of waiting; that one tries again
+                if "locked" not in str(error) or time.monotonic() > deadline:
+                    self.close()
+                    raise _os_error(error, self.path) from None
+                if self._db is not None and self._db.in_transaction:
+                    self._db.execute("ROLLBACK")
+                time.sleep(pause)
+                pause = min(2 * pause, 0.5)
+            except sqlite3.DatabaseError as error:
+                self.close()
+                raise self._refuse(f"is damaged, SQLite cannot read it ({error})") from None
+            except OSError as error:
+                if error.errno != errno.EBUSY or time.monotonic() > deadline:
+                    raise
+                time.sleep(pause)
+                pause = min(2 * pause, 0.5)
+
+    def _set_up(self, existing: bool) -> None:
+        """Check the file (if it held anything), switch to WAL, create the tables if missing."""
+        connection = self._connection()
+        if existing:
+            self._check(connection)
+        mode = connection.execute("PRAGMA journal_mode=WAL").fetchone()[0]
+        if mode != "wal":
+            raise OSError(errno.EIO, f"cannot use WAL mode (journal_mode={mode})", self.path)
+        with self._transaction() as connection:
+            found = connection.execute(
+                "SELECT name FROM sqlite_master WHERE type = 'table' AND name = 'meta'"
+            ).fetchone()
+            if found is None:
+                self._create(connection)
 
     def _check(self, connection: sqlite3.Connection) -> None:
         tables = {
@@ -557,44 +581,3 @@ class Store:
         """Git revisions of the code that computed the stored cells."""
         used = {record["run"] for record in self.cells.records.values()}
         return {self.runs.get(run, {}).get("git_rev", "unknown") for run in used}
-
-
-# --- errors --------------------------------------------------------------------------------
-def _os_error(error: sqlite3.Error, path: Path) -> OSError:
-    """SQLite's error on ``path`` as the ``OSError`` the machine gave (reported in one line):
-    a full disk or the file size limit, a read-only folder, a lock held past the timeout."""
-    primary = getattr(error, "sqlite_errorcode", -1) & 0xFF
-    code = {
-        sqlite3.SQLITE_FULL: errno.ENOSPC,
-        sqlite3.SQLITE_IOERR: errno.EIO,
-        sqlite3.SQLITE_READONLY: errno.EROFS,
-        sqlite3.SQLITE_CANTOPEN: errno.EACCES,
-        sqlite3.SQLITE_PERM: errno.EACCES,
-        sqlite3.SQLITE_BUSY: errno.EBUSY,
-    }.get(primary)
-    if code is None:
-        raise error
-    limit = _file_size_limit()
-    if code in (errno.ENOSPC, errno.EIO) and limit is not None:
-        code = errno.EFBIG  # most likely: a write past the limit fails as a full disk or EIO
-        return OSError(
-            code,
-            f"File too large: the file size limit (ulimit -f) is {limit} bytes (SQLite: {error})",
-            str(path),
-        )
-    reason = {
-        errno.ENOSPC: "No space left on device or the file size limit reached",
-        errno.EBUSY: f"the store stayed locked by another writer for {LOCK_TIMEOUT_S:.0f} s",
-        errno.EIO: "Input/output error (a full disk, the file size limit or a failing disk)",
-    }.get(code, os.strerror(code))
-    return OSError(code, f"{reason} (SQLite: {error})", str(path))
-
-
-def _file_size_limit() -> int | None:
-    """This process's file size limit in bytes (``ulimit -f``), None if there is none."""
-    try:
-        import resource
-    except ImportError:  # not on Windows
-        return None
-    soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
-    return None if soft == resource.RLIM_INFINITY else soft

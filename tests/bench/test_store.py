@@ -254,6 +254,40 @@ def test_two_concurrent_writers_store_every_cell_exactly_once(tmp_path):
     assert len(Store(directory).cells.records) == cells
 
 
+def _open_store_at_the_barrier(directory, barrier, results):
+    try:
+        barrier.wait()
+        store = Store(directory)
+        store.refresh()
+        store.close()
+        results.put("ok")
+    except Exception as error:  # reported to the test, which shows it
+        results.put(repr(error))
+
+
+def test_processes_opening_a_new_store_at_once_all_open_it(tmp_path):
+    """Three processes released together on a store not yet created, 20 times: every one opens
+    it. A fresh file is in rollback-journal mode; two openers that both read it and then ask
+    for WAL deadlock, and SQLite answered one of them "database is locked" at once (5 of 60
+    such trials here before the retry; CI hit it in the two-concurrent-runs test)."""
+    import multiprocessing
+
+    context = multiprocessing.get_context("fork" if hasattr(os, "fork") else "spawn")
+    for trial in range(20):
+        directory = tmp_path / str(trial)
+        barrier, results = context.Barrier(3), context.Queue()
+        openers = [
+            context.Process(target=_open_store_at_the_barrier, args=(directory, barrier, results))
+            for _ in range(3)
+        ]
+        for opener in openers:
+            opener.start()
+        outcomes = [results.get(timeout=120) for _ in openers]
+        for opener in openers:
+            opener.join(timeout=120)
+        assert outcomes == ["ok"] * 3, (trial, outcomes)
+
+
 def test_a_writer_killed_mid_run_loses_no_stored_cell(tmp_path):
     """SIGKILL of a process writing cells as fast as it can: every cell it reported stored
     (after its commit returned) is there, the database opens cleanly and takes new cells."""
