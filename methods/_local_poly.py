@@ -302,10 +302,10 @@ def kernel_weighted_fit_at(
     out = np.empty((at.size, flat.shape[1]))
     width = int(counts.max()) if at.size else 0
     chunk = max(1, KERNEL_FIT_CHUNK_ELEMENTS // max(1, width * (degree + 1)))
+    offsets_in_window = np.arange(width)
     for start in range(0, at.size, chunk):
         rows = slice(start, start + chunk)
         # each window's samples, padded to the widest with weight 0 (rows of zeros change no fit)
-        offsets_in_window = np.arange(width)
         index = np.minimum(first[rows, None] + offsets_in_window, n - 1)
         inside = offsets_in_window < counts[rows, None]
         offsets = times[index] - times[at[rows], None]

@@ -233,28 +233,26 @@ class Store:
         deadline = time.monotonic() + LOCK_TIMEOUT_S
         pause = 0.01
         while True:
+            # a fresh file is still in rollback-journal mode: two openers that both read it and
+            # then ask for WAL (an exclusive lock) deadlock, and SQLite answers one of them
+            # "locked" at once instead of waiting; that one tries again until the lock timeout
             try:
                 self._set_up(existing)
                 return
             except sqlite3.OperationalError as error:
-                # a fresh file is still in rollback-journal mode: two openers that both read it
-                # and then ask for WAL (an exclusive lock) deadlock, and SQLite answers one of
-                # them "locked" at once instead of waiting; that one tries again
                 if "locked" not in str(error) or time.monotonic() > deadline:
                     self.close()
                     raise _os_error(error, self.path) from None
-                if self._db is not None and self._db.in_transaction:
-                    self._db.execute("ROLLBACK")
-                time.sleep(pause)
-                pause = min(2 * pause, 0.5)
             except sqlite3.DatabaseError as error:
                 self.close()
                 raise self._refuse(f"is damaged, SQLite cannot read it ({error})") from None
-            except OSError as error:
+            except OSError as error:  # the same lock, met in _set_up's write transaction
                 if error.errno != errno.EBUSY or time.monotonic() > deadline:
                     raise
-                time.sleep(pause)
-                pause = min(2 * pause, 0.5)
+            if self._db is not None and self._db.in_transaction:
+                self._db.execute("ROLLBACK")
+            time.sleep(pause)
+            pause = min(2 * pause, 0.5)
 
     def _set_up(self, existing: bool) -> None:
         """Check the file (if it held anything), switch to WAL, create the tables if missing."""

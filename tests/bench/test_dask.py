@@ -16,8 +16,8 @@ from diffbench.bench.core.store import Store
 
 distributed = pytest.importorskip("dask.distributed")
 
-from tests.bench.killing import STOPPABLE_RUN, finish, slow_plugin_env  # noqa: E402
-from tests.bench.test_runner import CLI, _cells, _rows, _values, _wait_for_cells  # noqa: E402
+from tests.bench.killing import CLI, STOPPABLE_RUN, finish, slow_plugin_env  # noqa: E402
+from tests.bench.test_runner import _cells, _rows, _values, _wait_for_cells  # noqa: E402
 
 IN_PROCESS = DaskWorkers(workers=2, processes=False)  # threads of this process: fast to start
 

@@ -2,11 +2,9 @@
 
 import contextlib
 import json
-import os
 import signal
 import sqlite3
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -19,11 +17,7 @@ from diffbench.bench.core.roles import Role
 from diffbench.bench.core.store import STORE_FILE, Store
 from diffbench.bench.report import tables
 from diffbench.bench.tasks import available_tasks, get_task
-from tests.bench.killing import STOPPABLE_RUN, finish, slow_plugin_env
-
-ROOT = Path(__file__).resolve().parents[2]
-ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
-CLI = [sys.executable, "-m", "diffbench.bench"]
+from tests.bench.killing import CLI, ENV, STOPPABLE_RUN, finish, slow_plugin_env
 
 
 def _cells(seeds=3, names=("finite_difference", "savitzky_golay"), task="paper-signal"):
