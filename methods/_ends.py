@@ -33,8 +33,8 @@ valid is measured here, the same way for every such method, by probing it with s
    The error of a linear estimate is its bias and its noise,
    :math:`\\sqrt{b_k^2 + \\sigma^2 \\lVert w_k\\rVert^2}`: with both within ``c``
    times the interior's, so is the whole. Each end is trusted from the first sample after
-   which every sample towards the interior passes; the samples before it are masked (NaN), so
-   the valid samples are one unbroken stretch.
+   which every sample towards the interior passes; the samples before it are marked not valid
+   (they keep their estimates), so the valid samples are one unbroken stretch.
 
 Only the first and last ``reach`` samples can differ from the interior (``Method.end_reach``),
 so the probe runs on ``min(n, 2 reach + 1)`` samples, whatever the record's length; the result
@@ -198,12 +198,6 @@ def check_reaches(method, n_samples: int, dt: float, first: int, last: int) -> b
     return not reach <= first <= last < n_samples - reach
 
 
-def mask_untrusted(values: np.ndarray, keep: np.ndarray) -> np.ndarray:
-    """``values`` (time on axis 0) with NaN at the time steps ``keep`` leaves out."""
-    shape = (-1,) + (1,) * (values.ndim - 1)
-    return np.where(keep.reshape(shape), values, np.nan)
-
-
 def _from_last_failure(passes: np.ndarray) -> np.ndarray:
     """True from just after the last failing sample on: an end is trusted from the first sample
     after which every sample towards the interior passes (no holes in the mask)."""
@@ -220,18 +214,16 @@ def trusted_times(
     """Which of the irregular ``times`` to trust, per order, for a method whose end treatment
     reaches a fixed span of time: the trusted end samples found by :func:`trusted_samples` on
     the uniform record of step ``step`` and the same span, as times (the first and last
-    trusted grid times), then every measured time between them."""
+    trusted grid times), then every measured time between them (none, on a record too short
+    for any)."""
     n_grid = round((times[-1] - times[0]) / step) + 1
     trusted = trusted_samples(method, n_grid, step, orders)
     result = {}
     for order in orders:
         kept = np.flatnonzero(trusted[order])
         if not kept.size:
-            raise ValueError(
-                f"`x` spans {times[-1] - times[0]!r} s: too short for {method.name} with "
-                f"{method.params()} to give any estimate of order {order} within its own "
-                "accuracy; use a longer record, or settings with a shorter reach"
-            )
+            result[order] = np.zeros(times.size, dtype=bool)
+            continue
         start = times[0] + kept[0] * step - 1e-9 * step
         stop = times[0] + kept[-1] * step + 1e-9 * step
         result[order] = (times >= start) & (times <= stop)

@@ -18,7 +18,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from diffbench.methods._ends import check_reaches, mask_untrusted, trusted_samples
+from diffbench.methods._ends import check_reaches, trusted_samples
 from diffbench.methods._fir import apply_central_firs, fir_response
 from diffbench.methods._plugins import (
     distributions_of_modules,
@@ -165,10 +165,15 @@ class Preset:
 
 @dataclass(frozen=True)
 class Estimate:
-    """What a method returns: the smoothed signal and derivatives, and where they are valid.
+    """What a method returns: the smoothed signal and derivatives, where they exist, and where
+    they are trusted.
 
-    ``values[n]`` has the shape of the input; ``valid[n]`` is a boolean mask over axis 0 (time).
-    Invalid samples (e.g. where a central window does not fit) hold NaN; valid ones are finite.
+    ``values[n]`` has the shape of the input; it is finite wherever the method estimates the
+    sample (:meth:`estimated`) and NaN where it gives no estimate at all (e.g. where a central
+    window does not fit and the method has no end treatment). ``valid[n]``, a boolean mask over
+    axis 0 (time), is the trust mark: the samples whose expected error is within a few times the
+    interior's (:mod:`~diffbench.methods._ends`). Every valid sample is estimated; an estimated
+    sample need not be valid (the ends of a record, a filter's start-up).
     """
 
     values: Mapping[int, np.ndarray]
@@ -182,10 +187,8 @@ class Estimate:
             if mask.shape != value.shape[:1]:
                 raise ValueError(f"valid mask of order {order} does not match the time axis")
             finite = np.isfinite(value).reshape(value.shape[0], -1).all(axis=1)
-            if not np.array_equal(finite, mask):
-                raise ValueError(
-                    f"order {order}: the estimate is not finite exactly on its valid samples"
-                )
+            if (mask & ~finite).any():
+                raise ValueError(f"order {order}: the estimate is not finite on a valid sample")
 
     @property
     def orders(self) -> tuple[int, ...]:
@@ -197,8 +200,19 @@ class Estimate:
         return self.values[order]
 
     def coverage(self, order: int) -> float:
-        """Fraction of samples on which the derivative of ``order`` is valid."""
+        """Fraction of samples on which the derivative of ``order`` is valid (trusted)."""
         return float(np.mean(self.valid[order]))
+
+    def estimated(self, order: int) -> np.ndarray:
+        """Boolean mask over axis 0 of the samples where the derivative of ``order`` is
+        estimated (finite on every channel), trusted or not."""
+        value = self[order]
+        return np.isfinite(value).reshape(value.shape[0], -1).all(axis=1)
+
+    def trusted(self, order: int) -> np.ndarray:
+        """The derivative of ``order`` with NaN on the samples that are not valid."""
+        shape = (-1,) + (1,) * (self[order].ndim - 1)
+        return np.where(self.valid[order].reshape(shape), self[order], np.nan)
 
 
 class Method:
@@ -404,19 +418,11 @@ class Method:
         else:
             values, valid = self._estimate(x, dt, orders)
         if reach:
+            # a record too short for any sample to be within the method's own accuracy keeps
+            # its estimates, none of them valid
             trusted = trusted_samples(self, n, dt, orders)
             for order in orders:
-                keep = valid[order] & trusted[order]
-                if not keep.any():
-                    raise ValueError(
-                        f"`x` has {n} samples on axis 0: too short for {self.name} "
-                        f"with {self.params()} to give any estimate of order {order} within "
-                        f"its own accuracy (its ends take up to {reach} samples each); use a "
-                        f"longer record, or settings with a shorter reach"
-                    )
-                if not keep.all():
-                    values[order] = mask_untrusted(values[order], keep)
-                valid[order] = keep
+                valid[order] = valid[order] & trusted[order]
         return Estimate(values=values, valid=valid)
 
     def params(self) -> dict[str, Any]:
@@ -439,7 +445,7 @@ class Method:
         """How many samples at each end of a record this (linear) method estimates otherwise
         than its interior, at step ``dt``; ``None`` (the default) when it does not say. A method
         that says has its end estimates checked against its interior response and the ones that
-        miss masked (:mod:`methods._ends`)."""
+        miss marked not valid (:mod:`methods._ends`); they keep their values."""
         return None
 
     @classmethod

@@ -10,12 +10,14 @@ ends are on the nominal grid keeps its step, and with it windows that are whole 
 steps; a given nominal step is kept exactly when the span is not a whole number of them, the
 grid then ending less than a step past the last time: :func:`uniform_grid`), by the not-a-knot cubic
 spline through the measured samples (scipy's ``CubicSpline``); its estimates on that grid are
-brought back to the measured times by the cubic spline through its valid grid samples. The
+brought back to the measured times by the cubic spline through its valid grid samples (and,
+outside their span, through every grid sample it estimates: those times are estimated, not
+valid). The
 interpolation adds its own error: for a signal with bounded fourth derivative it is
 :math:`O(h^4 \\max|x^{(4)}|)` on the samples and :math:`O(h^{4-n})` on the derivative of
 order n, where h is the largest gap; on noisy data it also colours the noise (de Boor, *A
-Practical Guide to Splines*, 2001, ch. IV). A measured time outside the span of the valid grid
-estimates has no estimate.
+Practical Guide to Splines*, 2001, ch. IV). A measured time outside the span of the estimated
+grid samples has no estimate.
 """
 
 from __future__ import annotations
@@ -58,16 +60,27 @@ def to_grid(x: np.ndarray, times: np.ndarray, grid: np.ndarray) -> np.ndarray:
 def from_grid(
     values: np.ndarray, valid: np.ndarray, grid: np.ndarray, times: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Estimates on ``grid`` (``valid`` where they exist) brought back to ``times``: the cubic
-    spline through the valid grid samples, NaN outside their span. Returns (values, valid)."""
-    kept = np.flatnonzero(valid)
+    """Estimates on ``grid`` brought back to ``times``. Returns (values, valid).
+
+    The cubic spline through the grid's valid samples gives the times within their span (the
+    valid ones: untrusted end estimates do not leak into them); the spline through every
+    estimated (finite) grid sample gives the other times within the estimated span; times
+    beyond it are NaN."""
     out = np.full((times.size, *values.shape[1:]), np.nan)
+    estimated = np.flatnonzero(np.isfinite(values).reshape(values.shape[0], -1).all(axis=1))
+    _interpolate(out, values, grid, times, estimated)
+    inside = _interpolate(out, values, grid, times, np.flatnonzero(valid))
+    return out, inside
+
+
+def _interpolate(out, values, grid, times, kept) -> np.ndarray:
+    """Writes into ``out`` the cubic spline through the grid samples ``kept`` at the ``times``
+    within their span (the one value, at its own time, when one is kept); returns which."""
     inside = np.zeros(times.size, dtype=bool)
     if kept.size >= 2:
-        lo, hi = grid[kept[0]], grid[kept[-1]]
-        inside = (times >= lo) & (times <= hi)
+        inside = (times >= grid[kept[0]]) & (times <= grid[kept[-1]])
         out[inside] = CubicSpline(grid[kept], values[kept], axis=0)(times[inside])
     elif kept.size == 1:
         inside = times == grid[kept[0]]
         out[inside] = values[kept[0]]
-    return out, inside
+    return inside

@@ -195,7 +195,5 @@ class FiniteDifference(FirMethod):
                     np.vander(u, degree + 1, increasing=True), flat[stencil], rcond=None
                 )[0]
                 out[k] = coefficients[order] * factorial(order) / span**order
-            keep = trusted[order]
-            out[~keep] = np.nan
-            values[order], valid[order] = out.reshape(x.shape), keep
+            values[order], valid[order] = out.reshape(x.shape), trusted[order]
         return values, valid

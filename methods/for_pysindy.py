@@ -23,9 +23,10 @@ class Differentiation(BaseDifferentiation):
 
     each of the m columns of the trajectory differentiated on its own (time on axis 0),
     at the step pysindy passes (a float) or at its time stamps (an array: native or resampled
-    as the method's ``time_stamps`` says). Samples the method does not trust (masked ends) are
-    NaN in ``x_dot`` and, with ``smoothed_x=True``, in ``smoothed_x_``; pysindy's optimisers
-    drop NaN rows before fitting.
+    as the method's ``time_stamps`` says). Samples the method does not mark valid (ends it
+    estimates but does not trust) are NaN in ``x_dot`` and, with ``smoothed_x=True``, in
+    ``smoothed_x_`` (:meth:`Estimate.trusted`); pysindy's optimisers drop NaN rows before
+    fitting, so the regression sees trusted derivatives only.
 
     Parameters
     ----------
@@ -72,5 +73,5 @@ class Differentiation(BaseDifferentiation):
             estimate = method(x, float(t), orders=(0, 1))
         else:
             estimate = method(x, orders=(0, 1), t=np.asarray(t, dtype=np.float64))
-        self.smoothed_x_ = estimate[0] if self.smoothed_x else x
-        return estimate[1]
+        self.smoothed_x_ = estimate.trusted(0) if self.smoothed_x else x
+        return estimate.trusted(1)

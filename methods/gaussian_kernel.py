@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from diffbench.methods._ends import mask_untrusted, trusted_times
+from diffbench.methods._ends import trusted_times
 from diffbench.methods._local_poly import kernel_end_fits, kernel_weighted_fit_at
 from diffbench.methods._registry import FirMethod, Preset, param, register
 from diffbench.methods._validation import MAX_WINDOW_STEPS
@@ -163,6 +163,4 @@ class GaussianKernel(FirMethod):
             for order in orders
         }
         valid = trusted_times(self, times, step, orders)
-        for order in orders:
-            values[order] = mask_untrusted(values[order], valid[order])
         return values, valid

@@ -27,7 +27,7 @@ from scipy import fft as sp_fft
 from scipy import optimize
 from scipy.linalg import lapack
 
-from diffbench.methods._ends import mask_untrusted, trusted_samples
+from diffbench.methods._ends import trusted_samples
 from diffbench.methods._registry import Method, Preset, param, register
 
 TRUNCATE = 9.0
@@ -742,7 +742,6 @@ class GaussianProcessMarginalLikelihood(Method):
                     "its channels fit; use a longer record, or gaussian_process with settings "
                     "of a shorter reach"
                 )
-            values[order] = mask_untrusted(values[order], valid[order])
         values = {order: value.reshape(x.shape) for order, value in values.items()}
         return values, valid
 

@@ -793,7 +793,7 @@ class KalmanSmoother(Method):
     def _estimate_at(self, x, times, orders):
         from filterpy.kalman import KalmanFilter
 
-        from diffbench.methods._ends import mask_untrusted, trusted_times
+        from diffbench.methods._ends import trusted_times
 
         n = times.size
         if n < self.min_samples(1.0):
@@ -805,7 +805,7 @@ class KalmanSmoother(Method):
         flat = x.reshape(n, -1)
         Fs, Qs, to_derivatives = irregular_models(self.model_order, times, self.bandwidth_hz)
         states = self.model_order + 1
-        trusted = trusted_times(self, times, step, orders)  # before the filter: may refuse
+        trusted = trusted_times(self, times, step, orders)
         # states scaled by the mean step h (s_j = x^(j) h^j / j!): the polynomial's coefficients
         steps = (times - times[0]) / step + 1.0
         mean0, covariance0 = initial_state(flat, np.ones(states), steps)
@@ -818,8 +818,8 @@ class KalmanSmoother(Method):
             kf.R = np.eye(1)
             means, covariances, _, _ = kf.batch_filter(flat[:, channel], Fs=Fs, Qs=Qs)
             smoothed[:, :, channel] = kf.rts_smoother(means, covariances, Fs=Fs, Qs=Qs)[0]
-        values = {}
-        for order in orders:
-            estimate = (smoothed[:, order, :] * to_derivatives[order]).reshape(x.shape)
-            values[order] = mask_untrusted(estimate, trusted[order])
+        values = {
+            order: (smoothed[:, order, :] * to_derivatives[order]).reshape(x.shape)
+            for order in orders
+        }
         return values, trusted

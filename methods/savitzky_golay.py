@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from diffbench.methods._ends import mask_untrusted, trusted_times
+from diffbench.methods._ends import trusted_times
 from diffbench.methods._fir import apply_central_fir
 from diffbench.methods._local_poly import (
     local_polynomial_at,
@@ -134,6 +134,4 @@ class SavitzkyGolay(FirMethod):
             )
         values = local_polynomial_at(x, times, self.window_s, self.degree, orders)
         valid = trusted_times(self, times, grid_step, orders)
-        for order in orders:
-            values[order] = mask_untrusted(values[order], valid[order])
         return values, valid

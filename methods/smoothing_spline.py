@@ -8,7 +8,7 @@ import math
 import numpy as np
 from scipy.linalg import cho_solve_banded, cholesky_banded
 
-from diffbench.methods._ends import mask_untrusted, trusted_times
+from diffbench.methods._ends import trusted_times
 from diffbench.methods._registry import Method, Preset, param, register
 from diffbench.methods._validation import check_frequency, mean_step
 
@@ -282,8 +282,6 @@ class SmoothingSpline(Method):
             orders,
         )
         valid = trusted_times(self, times, step, orders)
-        for order in orders:
-            values[order] = mask_untrusted(values[order], valid[order])
         return values, valid
 
     @staticmethod

@@ -8,7 +8,6 @@ import math
 import numpy as np
 from scipy.linalg import LinAlgError, solveh_banded
 
-from diffbench.methods._ends import mask_untrusted
 from diffbench.methods._registry import Method, Preset, param, register
 
 TV_ORDERS = (1, 2)
@@ -484,10 +483,9 @@ class TotalVariation(Method):
         for order in orders:
             # the trend's first and last two samples each take part in one or two of the
             # penalty's k + 2-sample terms (the others in more): the freest, so the noisiest;
-            # every estimate that reads them is masked (ẋ_0 is one-sided besides: noise gain
-            # √26/2 against the central √2/2)
+            # every estimate that reads them is marked not valid (ẋ_0 is one-sided besides:
+            # noise gain √26/2 against the central √2/2)
             ends = END_SAMPLES[order]
             valid[order][:ends] = False
             valid[order][x.shape[0] - ends :] = False
-            values[order] = mask_untrusted(values[order], valid[order])
         return values, valid

@@ -1,8 +1,10 @@
 """Error scores of an estimate against the exact truth.
 
-Every derivative order is scored on two regions: ``valid``, the samples the method itself
-estimates (its coverage), and ``interior``, a common set of samples fixed by the scenario (the
-same for every method of a comparison, so rankings are fair).
+Every derivative order is scored on three regions: ``valid``, the samples the method itself
+marks valid (trusted: its coverage); ``whole``, every sample it estimates, trusted or not (the
+whole record, when it estimates every sample: its ``coverage`` row says the share); and
+``interior``, a common set of samples fixed by the scenario (the same for every method of a
+comparison, so rankings are fair), taken where the method marks them valid.
 """
 
 from __future__ import annotations
@@ -11,7 +13,7 @@ import numpy as np
 
 from diffbench.methods import Estimate
 
-REGIONS = ("valid", "interior")
+REGIONS = ("valid", "interior", "whole")
 ERROR_METRICS = ("rmse", "max_abs", "rel_rmse")
 
 
@@ -65,15 +67,19 @@ def score_estimate(
     """Tidy score rows (order, region, metric, value) of ``estimate`` against ``truth``.
 
     ``truth[n]`` is the exact derivative of order n. Besides the error metrics of each order
-    on both regions, each order gets ``coverage`` (fraction of samples the method estimates)
-    and ``interior_coverage`` (fraction of the interior it estimates; interior errors are taken
-    on the part it covers).
+    on the three regions, each order gets ``coverage`` on each: the fraction of samples the
+    method marks valid (``valid``), of the interior it marks valid (``interior``; interior
+    errors are taken on that part) and of the record it estimates (``whole``).
     """
     interior = np.asarray(interior, dtype=bool)
     rows: list[dict[str, float | int | str]] = []
     for order in estimate.orders:
         valid = estimate.valid[order]
-        regions = {"valid": valid, "interior": interior & valid}
+        regions = {
+            "valid": valid,
+            "interior": interior & valid,
+            "whole": estimate.estimated(order),
+        }
         for region in REGIONS:
             if regions[region].any():
                 metrics = error_metrics(estimate[order], truth[order], regions[region])
@@ -83,20 +89,13 @@ def score_estimate(
                 {"order": order, "region": region, "metric": metric, "value": value}
                 for metric, value in metrics.items()
             ]
-        rows.append(
-            {
-                "order": order,
-                "region": "valid",
-                "metric": "coverage",
-                "value": float(np.mean(valid)),
-            }
-        )
-        rows.append(
-            {
-                "order": order,
-                "region": "interior",
-                "metric": "coverage",
-                "value": float(np.count_nonzero(regions["interior"]) / interior.sum()),
-            }
-        )
+        coverage = {
+            "valid": float(np.mean(valid)),
+            "interior": float(np.count_nonzero(regions["interior"]) / interior.sum()),
+            "whole": float(np.mean(regions["whole"])),
+        }
+        rows += [
+            {"order": order, "region": region, "metric": "coverage", "value": coverage[region]}
+            for region in REGIONS
+        ]
     return rows

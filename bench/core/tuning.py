@@ -310,15 +310,15 @@ def tune(
     the quantity the tables report over the scored seeds): one noise draw can favour a setting
     by luck, K draws cut that luck by about √K. The realisations must share step and length.
 
-    ``region``: the samples the loss is taken on, the scenario's ``"interior"`` or the
-    ``"whole"`` record (then every sample must be estimated, and the parameters declared
-    ``ends_only``, edge treatments, are searched too). The no-truth criterion, a spectral
-    estimate that knows no ends, takes the interior only.
+    ``region``: the samples the loss is taken on, the scenario's ``"interior"`` (every one of
+    them valid) or the ``"whole"`` record (every sample estimated, valid or not; the
+    parameters declared ``ends_only``, edge treatments, are searched too). The no-truth
+    criterion, a spectral estimate that knows no ends, takes the interior only.
 
     Candidates that a method rejects (e.g. a window longer than the signal) or that leave part
-    of the scored samples unestimated cost +inf. Each combination of the choice parameters is
-    searched in turn: by differential evolution over the other parameters
-    (``max_evaluations`` bounds each run: default 100 per searched parameter, within
+    of the scored samples unestimated (on the interior: not valid) cost +inf. Each combination
+    of the choice parameters is searched in turn: by differential evolution over the other
+    parameters (``max_evaluations`` bounds each run: default 100 per searched parameter, within
     150..400), or, with at most one other parameter, by a grid refined with Brent's method.
     On a narrow optimum (the spectral low-pass just passing the 15 Hz line of the paper
     signal) the default budget can stop short: `make bench` gives the 10-seed tunings 400.
@@ -409,7 +409,9 @@ def tune(
             )
         except ValueError:
             return math.inf
-        if not estimate.valid[order][inside].all():
+        # the interior must be trusted; the whole record estimated, trusted or not
+        covered = estimate.valid[order] if region == "interior" else estimate.estimated(order)
+        if not covered[inside].all():
             return math.inf
         if criterion == "oracle":
             error = estimate[order][inside] - realisations[k].truth[order][inside]

@@ -24,17 +24,23 @@ from diffbench.bench.core.stats import confidence_interval
 
 ENTRY_KEYS = ["method", "params", "role"]
 ROLE_COLUMNS = list(store.ROLE_COLUMNS)
-REGION_LABELS = {"interior": "interior", "valid": "whole record (own valid samples)"}
-WHOLE_COVERAGE = 0.99
-"""Least fraction of the record an entry must estimate, on every seed, to be ranked on the whole
-record: below it, its RMSE over its own valid samples leaves out too much to stand for the
-whole (it is still shown, with its coverage)."""
+REGION_LABELS = {
+    "interior": "interior",
+    "whole": "whole record (every sample estimated)",
+    "valid": "whole record (own valid samples)",
+}
+WHOLE_COVERAGE = {"whole": 1.0, "valid": 0.99}
+"""Least fraction of the record an entry must cover, on every seed, to be ranked on the whole
+record: estimate every sample (region ``whole``); or, ranked on its own valid samples (region
+``valid``, the studies' scenario grid), mark 99 % of them valid (below that, its RMSE leaves
+out too much to stand for the whole; it is still shown, with its coverage)."""
 
 # (column label, metric, derivative order, region)
 RMSE_COLUMNS = [
     *((f"RMSE {ORDER_SYMBOLS[n]} interior", "rmse", n, "interior") for n in (1, 2, 0)),
-    *((f"RMSE {ORDER_SYMBOLS[n]} whole", "rmse", n, "valid") for n in (1, 2, 0)),
-    *((f"coverage {ORDER_SYMBOLS[n]}", "coverage", n, "valid") for n in (1, 2)),
+    *((f"RMSE {ORDER_SYMBOLS[n]} whole", "rmse", n, "whole") for n in (1, 2, 0)),
+    *((f"estimated {ORDER_SYMBOLS[n]}", "coverage", n, "whole") for n in (1, 2)),
+    *((f"valid {ORDER_SYMBOLS[n]}", "coverage", n, "valid") for n in (1, 2)),
 ]
 DECOMPOSITION_COLUMNS = [
     (f"{ORDER_SYMBOLS[n]} {part}", metric, n, "interior")
@@ -127,16 +133,16 @@ def summarise(rows: pd.DataFrame, keys: Sequence[str] = ENTRY_KEYS) -> pd.DataFr
 
 
 def covering_whole(
-    rows: pd.DataFrame, order: int, keys: Sequence[str] = ENTRY_KEYS
+    rows: pd.DataFrame, order: int, keys: Sequence[str] = ENTRY_KEYS, region: str = "whole"
 ) -> pd.DataFrame:
-    """``rows`` less the entries that estimate under :data:`WHOLE_COVERAGE` of the record for
-    the derivative of ``order`` on some seed (their whole-record RMSE would leave out their
-    worst samples); an entry with no coverage row for ``order`` is left out too."""
+    """``rows`` less the entries that cover under :data:`WHOLE_COVERAGE` of the record for the
+    derivative of ``order`` on ``region`` on some seed (their whole-record RMSE would leave out
+    their worst samples); an entry with no coverage row for ``order`` is left out too."""
     coverage = rows[
-        (rows["metric"] == "coverage") & (rows["order"] == order) & (rows["region"] == "valid")
+        (rows["metric"] == "coverage") & (rows["order"] == order) & (rows["region"] == region)
     ]
     least = coverage.groupby(list(keys), dropna=False)["value"].min()
-    covering = least[least >= WHOLE_COVERAGE].index
+    covering = least[least >= WHOLE_COVERAGE[region]].index
     index = pd.MultiIndex.from_frame(rows[list(keys)])
     return rows[index.isin(covering)]
 

@@ -100,12 +100,13 @@ def winners(rows: pd.DataFrame, order: int = 2, region: str = "interior") -> pd.
 
     ``region`` is ``"interior"`` (the samples every method is scored on) or ``"valid"`` (the
     whole record: each entry's own valid samples, entries covering less than
-    :data:`diffbench.bench.report.tables.WHOLE_COVERAGE` of it on some seed left out).
+    ``WHOLE_COVERAGE["valid"]`` (:mod:`diffbench.bench.report.tables`) of it on some seed left
+    out).
     """
     if region not in ("interior", "valid"):
         raise ValueError(f"`region` must be 'interior' or 'valid', got {region!r}")
     if region == "valid":
-        rows = tables.covering_whole(rows, order, keys=("method", "params"))
+        rows = tables.covering_whole(rows, order, keys=("method", "params"), region="valid")
     records = []
     for kind, level, step, name in _grid_tasks():
         record = {
@@ -297,9 +298,10 @@ def write_winners(rows: pd.DataFrame, directory: Path) -> list[Path]:
             "moved by up to ±30 % of the step, or 10 % of the samples lost, scored at the "
             "measured times (`(resampled)`: a method without its own handling of time stamps, "
             "run on the record resampled to the nominal grid and back; `diffbench list`); `—`: "
-            "not run at that step. **whole**: the RMSE over each "
-            "setting's own valid samples, among the settings that estimate at least "
-            f"{tables.WHOLE_COVERAGE:.0%} of the record on every seed. The signal: sin 2π4t + "
+            "not run at that step. **whole**: the RMSE over each setting's own valid samples, "
+            "among the settings that mark at least "
+            f"{tables.WHOLE_COVERAGE['valid']:.0%} of the record valid on every seed (they "
+            "estimate every sample; the valid ones are those they trust). The signal: sin 2π4t + "
             "sin 2π9t + sin 2π15t over 0.93 s (not a whole number of periods).\n\nMethods and "
             "the packages that computed them: " + packages_line(rows) + "."
         )

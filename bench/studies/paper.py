@@ -71,7 +71,7 @@ def figure1_data(seed: int = 0, names=None) -> pd.DataFrame:
     Columns: ``t_s``, ``x_noisy``, ``x_true``, ``velocity_true``, ``acceleration_true``,
     ``interior`` (the samples every method is scored on) and, per method,
     ``<method>_velocity_error`` and ``<method>_acceleration_error`` = estimate - truth (NaN
-    where the method has no estimate).
+    where the method marks no valid estimate).
     """
     realisation = signals.get_scenario(SCENARIO).realise(seed)
     frame = {
@@ -86,7 +86,7 @@ def figure1_data(seed: int = 0, names=None) -> pd.DataFrame:
         method = methods.preset(name, "paper-signal")
         estimate = method(realisation.x, realisation.dt_s)
         for order, label in ((1, "velocity"), (2, "acceleration")):
-            frame[f"{name}_{label}_error"] = estimate[order] - realisation.truth[order]
+            frame[f"{name}_{label}_error"] = estimate.trusted(order) - realisation.truth[order]
     return pd.DataFrame(frame)
 
 
@@ -405,7 +405,7 @@ def figure5_data(scenario_name: str = "robot-sim", seed: int = 0) -> pd.DataFram
 
     Columns: ``t_s``, ``q1_measured``, ``q1_true``, ``qd1_true``, ``qdd1_true``, ``interior``
     (the samples the identification uses) and, per method, ``qd1_<method>_error`` and
-    ``qdd1_<method>_error`` (NaN where the method has no estimate).
+    ``qdd1_<method>_error`` (NaN where the method marks no valid estimate).
     """
 
     scenario = robot2r.get_robot_scenario(scenario_name)
@@ -423,8 +423,8 @@ def figure5_data(scenario_name: str = "robot-sim", seed: int = 0) -> pd.DataFram
         if "robot" not in methods.method_class(name).presets:
             continue
         estimate = methods.preset(name, "robot")(realisation.q, realisation.dt_s)
-        frame[f"qd1_{name}_error"] = estimate[1][:, 0] - truth.qd[:, 0]
-        frame[f"qdd1_{name}_error"] = estimate[2][:, 0] - truth.qdd[:, 0]
+        frame[f"qd1_{name}_error"] = estimate.trusted(1)[:, 0] - truth.qd[:, 0]
+        frame[f"qdd1_{name}_error"] = estimate.trusted(2)[:, 0] - truth.qdd[:, 0]
     return pd.DataFrame(frame)
 
 
@@ -478,7 +478,7 @@ END_FRACTION = 0.05
 def squared_error_sums(name: str, seeds: int) -> dict[int, np.ndarray]:
     r"""Sums over the noise seeds ``0..seeds-1`` (added in seed order) of the squared errors of
     ẋ and ẍ at every sample of method ``name`` (paper-signal preset) on the paper scenario
-    (NaN where it gives no estimate): :math:`\sum_s (\hat{x}^{(n)}_{s,i} - x^{(n)}_i)^2`."""
+    (NaN where it marks no valid estimate): :math:`\sum_s (\hat{x}^{(n)}_{s,i} - x^{(n)}_i)^2`."""
     scenario = signals.get_scenario(SCENARIO)
     method = methods.preset(name, "paper-signal")
     sums = {}
@@ -486,7 +486,7 @@ def squared_error_sums(name: str, seeds: int) -> dict[int, np.ndarray]:
         realisation = scenario.realise(seed)
         estimate = method(realisation.x, realisation.dt_s)
         for order in (1, 2):
-            squared = (estimate[order] - realisation.truth[order]) ** 2
+            squared = (estimate.trusted(order) - realisation.truth[order]) ** 2
             sums[order] = sums.get(order, np.zeros(len(squared))) + squared
     return sums
 
@@ -496,7 +496,7 @@ def error_profile_frame(sums: dict[str, dict[int, np.ndarray]], seeds: int) -> p
     of every method of ``sums`` (:func:`squared_error_sums` by method name, in column order).
 
     At sample :math:`i`, :math:`e_i = \sqrt{\frac{1}{S}\sum_s (\hat{x}^{(n)}_{s,i} -
-    x^{(n)}_i)^2}` over the :math:`S` seeds (NaN where the method gives no estimate). Columns:
+    x^{(n)}_i)^2}` over the :math:`S` seeds (NaN where the method marks no valid estimate). Columns:
     ``t_s``, ``position`` (:math:`i/(N-1)`), ``interior`` and, per method,
     ``<method>_velocity_rms_error`` and ``<method>_acceleration_rms_error``.
     """
@@ -512,7 +512,7 @@ def error_profile_frame(sums: dict[str, dict[int, np.ndarray]], seeds: int) -> p
 def ends_table(profile: pd.DataFrame, end_fraction: float = END_FRACTION) -> pd.DataFrame:
     """Per method and derivative, the RMS error over the first and the last ``end_fraction``
     of the record and over the middle between them (from :func:`error_profile_frame`), the
-    worst end against the middle, and the fraction of the record the method estimates."""
+    worst end against the middle, and the fraction of the record the method marks valid."""
     n = len(profile)
     k = max(1, round(end_fraction * n))
     parts = {"start": slice(0, k), "middle": slice(k, n - k), "end": slice(n - k, n)}
@@ -579,6 +579,7 @@ def write_error_profile(directory: Path, profile: pd.DataFrame, seeds: int) -> l
         f"Ends against the middle: RMS error over the first and last {END_FRACTION:.0%} of the "
         f"record and over the middle, {seeds} noise seeds, paper-signal presets",
         "From `error_vs_position.csv`. **coverage**: the fraction of the record the method "
-        "estimates (the RMS errors are over the samples it estimates).",
+        "marks valid (the RMS errors are over those samples; the samples it estimates but "
+        "does not trust count in the signal tables' whole-record columns).",
     )
     return written

@@ -3,8 +3,9 @@ method diffbench wraps at the parameters PyNumDiff's tests give it, every native
 by the truth on a seed never scored, all scored over every sample.
 
 An entry is a method at one setting on one record: :func:`entry_rows` gives its per-seed
-scores of ẋ (coverage, RMSE over the whole record when it covers it, RMSE over the samples it
-covers), :func:`oracle_setting` its tuned setting, :func:`record_table` and
+scores of ẋ (the share of samples it estimates and of those it marks valid, RMSE over the
+whole record when it estimates every sample, RMSE over its valid samples),
+:func:`oracle_setting` its tuned setting, :func:`record_table` and
 :func:`summary_table` the report.
 """
 
@@ -94,9 +95,10 @@ def oracle_setting(record: str, name: str, max_evaluations: int | None = None) -
 
 def entry_rows(record: str, name: str, params: dict, seeds: int) -> list[dict[str, Any]]:
     """Per seed 0..seeds-1, ``name`` at ``params`` on ``record``: ``coverage`` (fraction of
-    samples estimated), ``rmse_whole`` (ẋ RMSE over every sample; NaN unless it covers them
-    all) and ``rmse_valid`` (over the samples it estimates); ``failure``: why it gave no
-    estimate (a setting refused on this record), or empty."""
+    samples estimated), ``valid`` (fraction marked valid), ``rmse_whole`` (ẋ RMSE over every
+    sample; NaN unless it estimates them all) and ``rmse_valid`` (over the samples it marks
+    valid); ``failure``: why it gave no estimate (a setting refused on this record), or
+    empty."""
     scenario = records.get(record)
     rows = []
     for seed in range(seeds):
@@ -108,6 +110,7 @@ def entry_rows(record: str, name: str, params: dict, seeds: int) -> list[dict[st
                 {
                     "seed": seed,
                     "coverage": 0.0,
+                    "valid": 0.0,
                     "rmse_whole": math.nan,
                     "rmse_valid": math.nan,
                     "failure": str(error),
@@ -115,12 +118,14 @@ def entry_rows(record: str, name: str, params: dict, seeds: int) -> list[dict[st
             )
             continue
         valid = np.asarray(estimate.valid[ORDER], dtype=bool)
+        estimated = estimate.estimated(ORDER)
         error = estimate[ORDER] - realisation.truth[ORDER]
         rows.append(
             {
                 "seed": seed,
-                "coverage": float(np.mean(valid)),
-                "rmse_whole": float(np.sqrt(np.mean(error**2))) if valid.all() else math.nan,
+                "coverage": float(np.mean(estimated)),
+                "valid": float(np.mean(valid)),
+                "rmse_whole": float(np.sqrt(np.mean(error**2))) if estimated.all() else math.nan,
                 "rmse_valid": (
                     float(np.sqrt(np.mean(error[valid] ** 2))) if valid.any() else math.nan
                 ),
@@ -164,6 +169,7 @@ def entries_frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
         seeds=("seed", "nunique"),
         coverage=("coverage", "mean"),
         min_coverage=("coverage", "min"),
+        valid=("valid", "mean"),
         rmse_whole=("rmse_whole", "mean"),
         rmse_valid=("rmse_valid", "mean"),
         failure=("failure", "max"),
@@ -185,8 +191,9 @@ def record_table(entries: pd.DataFrame, record: str) -> pd.DataFrame:
             "parameters": part["source"] + ": " + part["setting"],
             "time stamps": part["time_stamps"],
             "tuned on": part["tuned_on"],
-            "coverage": part["coverage"].map(lambda v: f"{v:.0%}"),
+            "estimated": part["coverage"].map(lambda v: f"{v:.0%}"),
             "covers all": part["covers"].map({True: "yes", False: "NO"}),
+            "valid": part["valid"].map(lambda v: f"{v:.0%}"),
             "RMSE whole record": part["rmse_whole"],
             "RMSE valid samples": part["rmse_valid"],
             "failed": part["failure"].fillna(""),
@@ -239,7 +246,7 @@ def summary_table(entries: pd.DataFrame) -> pd.DataFrame:
                     "—"
                     if best_valid is None
                     else f"{best_valid['method']}: {best_valid['rmse_valid']:.3g} "
-                    f"({best_valid['coverage']:.0%})"
+                    f"({best_valid['valid']:.0%} valid)"
                 ),
             }
         )
@@ -267,9 +274,10 @@ def write_report(rows: list[dict[str, Any]], directory: Path, seeds: int) -> lis
         f"record on the seed {tuning.TUNING_SEED} (never scored; one that covers no whole "
         "record: on the widest middle part it covers, column `tuned on`; one that covers too "
         "little to be tuned: at its defaults); "
-        f"PyNumDiff's methods at its tests' parameters ({records.SOURCE}). A method not "
-        "covering every sample at every seed has no whole-record RMSE (its RMSE over the "
-        "samples it covers is beside it). Ratio: diffbench's best / PyNumDiff's best (< 1: "
+        f"PyNumDiff's methods at its tests' parameters ({records.SOURCE}). **estimated**: the "
+        "share of samples a method estimates; a method not estimating every sample at every "
+        "seed has no whole-record RMSE. **valid**: the share it marks valid (trusts; the "
+        "RMSE over them is beside it). Ratio: diffbench's best / PyNumDiff's best (< 1: "
         "diffbench ahead)."
     )
     summary = summary_table(entries)

@@ -135,20 +135,22 @@ class JacobiInfluenceTask(SignalTask):
 
 
 INTERIOR_NOTE = (
-    "- **interior**: the task's common interior, the same samples for every method; **whole**: "
-    "every sample of the record the method estimates (its own valid samples; the coverage "
-    "columns give the fraction of the record they are). Cells: mean ± 95 % confidence "
-    "half-width over the noise seeds (std in the CSV)."
+    "- **interior**: the task's common interior, the same samples for every method, where it "
+    "marks them valid; **whole**: every sample of the record the method estimates, valid or "
+    "not (**estimated**: the fraction of the record they are); **valid**: the fraction of the "
+    "record the method marks valid, its samples whose expected error is within a few times "
+    "its interior's. Cells: mean ± 95 % confidence half-width over the noise seeds (std in "
+    "the CSV)."
 )
 
 
-REGION_HEADINGS = {"interior": "interior", "valid": "whole record"}
+REGION_HEADINGS = {"interior": "interior", "whole": "whole record"}
 
 
 WHOLE_RANK_NOTE = (
-    "On the **whole record** an entry is ranked by its RMSE over every sample it estimates, "
-    f"and only if these cover at least {tables.WHOLE_COVERAGE:.0%} of the record on every seed "
-    "(an entry that leaves out its ends would otherwise rank on its middle)."
+    "On the **whole record** an entry is ranked by its RMSE over every sample, and only if it "
+    "estimates every sample on every seed (an entry that leaves out its ends would otherwise "
+    "rank on its middle)."
 )
 
 
@@ -197,12 +199,12 @@ def signal_report(
 
 def ranking_report(cells: pd.DataFrame, directory: Path) -> list[Path]:
     """``ranking.md``/``.csv``: entries ranked by RMSE of ẋ and of ẍ, on the interior and on
-    the whole record (entries covering at least :data:`tables.WHOLE_COVERAGE` of it), each
+    the whole record (entries that estimate every sample of it), each
     compared with the next by a paired t-test over the common seeds, with the smallest
     difference that test detects 80 % of the time."""
     frames, parts = [], []
     for order in (1, 2):
-        for region in ("interior", "valid"):
+        for region in ("interior", "whole"):
             rows = cells if region == "interior" else tables.covering_whole(cells, order)
             chosen = rows[
                 (rows["metric"] == "rmse") & (rows["order"] == order) & (rows["region"] == region)
@@ -295,7 +297,7 @@ def tuning_table(cells: pd.DataFrame, tunings: pd.DataFrame) -> pd.DataFrame:
     records = []
     for (method, order), group in tunings.groupby(["method", "order"], sort=True):
         order = int(order)
-        for region in ("interior", "valid"):
+        for region in ("interior", "whole"):
             record = {
                 "method": method,
                 "n": ORDER_SYMBOLS[order],
@@ -328,7 +330,7 @@ def tuning_table(cells: pd.DataFrame, tunings: pd.DataFrame) -> pd.DataFrame:
                 record["no-truth"] / oracle if oracle > 0 else float("nan")
             )
             known = [c for c in coverages if np.isfinite(c)]
-            record["least coverage"] = min(known) if region == "valid" and known else float("nan")
+            record["least coverage"] = min(known) if region == "whole" and known else float("nan")
             records.append(record)
     return pd.DataFrame(records)
 
@@ -355,9 +357,9 @@ def tuning_report(cells: pd.DataFrame, tunings: pd.DataFrame, directory: Path) -
         "**oracle**, **no-truth**, **pynumdiff**: one seed, loss on the interior; **oracle 10 "
         "seeds**: the loss averaged over ten seeds; **whole**: the loss taken on every sample. "
         "no-truth / oracle near 1 means the data-only criterion finds what the truth would; "
-        "tuning.csv also gives the seconds each tuning took. **whole record**: RMSE over each "
-        "setting's own valid samples; **least coverage**: the smallest fraction of the record "
-        "they cover among the row's settings (under 1: some ends are masked).",
+        "tuning.csv also gives the seconds each tuning took. **whole record**: RMSE over every "
+        "sample each setting estimates; **least coverage**: the smallest fraction of the record "
+        "they estimate among the row's settings (under 1: some samples have no estimate).",
     )
 
 

@@ -300,8 +300,8 @@ def test_a_plugin_method_that_fails_is_a_named_failed_cell_retried_by_the_next_r
         ("bad.raises", "RuntimeError: the plugin's own bug"),
         ("bad.exits", "SystemExit: 5"),
         ("bad.shape", "ValueError: valid mask of order 0 does not match the time axis"),
-        ("bad.nan", "ValueError: order 0: the estimate is not finite exactly on its valid"),
-        ("bad.inf", "ValueError: order 0: the estimate is not finite exactly on its valid"),
+        ("bad.nan", "ValueError: order 0: the estimate is not finite on a valid sample"),
+        ("bad.inf", "ValueError: order 0: the estimate is not finite on a valid sample"),
     ]:
         assert prefix.format(name, name) + reason in result.stderr
     assert "5 cells of paper-signal failed and are not in its tables" in result.stderr

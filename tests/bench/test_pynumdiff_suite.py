@@ -76,12 +76,14 @@ def test_a_native_only_run_writes_its_tables(tmp_path):
     ]
     accuracy = int(row["setting"].iloc[0].split("accuracy_order=")[1].split(",")[0])
     rmse, coverage = _expected_finite_difference("pynumdiff-f1", accuracy, 2)
-    assert row["coverage"].iloc[0] == pytest.approx(coverage, abs=1e-15)
+    # every sample estimated; the valid ones are those the ends check trusts
+    assert row["coverage"].iloc[0] == 1.0
+    assert row["valid"].iloc[0] == pytest.approx(coverage, abs=1e-15)
     # the stencil sums round to a few eps of max|x|/dt (7/0.1), relative to an RMSE near 0.3
     tolerance = 64 * EPS * 7 / 0.1
     valid = row["rmse_valid"].iloc[0]
     assert abs(valid - rmse) <= tolerance, (valid, rmse)
-    assert bool(row["covers"].iloc[0]) is (coverage == 1.0)
+    assert bool(row["covers"].iloc[0])
     # a rerun computes nothing: every item is stored
     again = api.run(task, methods=["finite_difference", "spectral"], seeds=2, out=tmp_path)
     assert again.cells.computed == 0 and again.cells.skipped == 4
@@ -115,7 +117,7 @@ def test_pynumdiffs_methods_at_its_tests_parameters(tmp_path):
     )
 
 
-def test_a_method_that_masks_ends_is_marked_not_covering():
+def test_a_method_that_leaves_samples_unestimated_is_marked_not_covering():
     rows = [
         {
             "record": "r",
@@ -127,6 +129,7 @@ def test_a_method_that_masks_ends_is_marked_not_covering():
             "tuned_on": "whole",
             "seed": s,
             "coverage": c,
+            "valid": c - 0.1,
             "rmse_whole": w,
             "rmse_valid": v,
             "failure": "",
@@ -136,6 +139,7 @@ def test_a_method_that_masks_ends_is_marked_not_covering():
     entries = study.entries_frame(rows)
     assert not entries["covers"].iloc[0] and math.isnan(entries["rmse_whole"].iloc[0])
     assert entries["rmse_valid"].iloc[0] == 1.5 and entries["coverage"].iloc[0] == 0.95
+    assert entries["valid"].iloc[0] == pytest.approx(0.85, abs=1e-15)
 
 
 def test_ratio_against_an_exact_peer_is_infinite():

@@ -115,7 +115,10 @@ def test_exact_on_polynomials_of_the_claimed_degree(name, params):
         degree = int(min(degree, 8))
         _, truth = _polynomial(degree, rng)
         estimate = method(truth[0](t), dt, orders=(order,))
-        valid = estimate.valid[order]
+        # diffbench's own methods estimate the ends too, and exactly; a peer on its valid
+        # samples (the ends check's, or its finite ones)
+        native = methods.package_of(name).startswith("diffbench")
+        valid = estimate.estimated(order) if native else estimate.valid[order]
         exact = truth[order](t)
         scale = 1.0 + np.max(np.abs(exact))
         # Rounding only: taps of size ~dt^-order applied to O(1) samples.

@@ -209,10 +209,13 @@ def test_misspelt_preset_is_an_error_listing_the_keys():
 
 
 def test_estimate_rejects_nan_on_valid_samples():
-    values = {1: np.array([np.nan, 1.0, np.nan])}
-    with pytest.raises(ValueError, match="not finite exactly on its valid samples"):
-        methods.Estimate(values=values, valid={1: np.array([True, True, False])})
-    estimate = methods.Estimate(values=values, valid={1: np.array([False, True, False])})
-    assert estimate.coverage(1) == pytest.approx(1 / 3)
+    values = {1: np.array([np.nan, 1.0, 2.0, np.nan])}
+    with pytest.raises(ValueError, match="not finite on a valid sample"):
+        methods.Estimate(values=values, valid={1: np.array([True, True, False, False])})
+    # estimated but not trusted: the third sample keeps its value, marked not valid
+    estimate = methods.Estimate(values=values, valid={1: np.array([False, True, False, False])})
+    assert estimate.coverage(1) == 0.25
+    np.testing.assert_array_equal(estimate.estimated(1), [False, True, True, False])
+    np.testing.assert_array_equal(estimate.trusted(1), [np.nan, 1.0, np.nan, np.nan])
     with pytest.raises(ValueError, match="`order` 2 was not estimated"):
         estimate[2]

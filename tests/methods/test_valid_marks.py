@@ -135,11 +135,13 @@ NOT_YET: dict[tuple[str, str, float], str] = {
 """Cases the marks still miss (strict: the test says when they pass). ``spectral`` estimates
 every sample and marks every one valid; made periodic, a record whose ends do not meet jumps
 in its curvature at the joins, and the raised-cosine kernel spreads that jump over about
-1/(rolloff cutoff): up to 53 times the interior's RMS error (ẋ, 2.345 s). A mask that holds
-on every length (the ends check over the kernel's decay) takes up to 300 samples an end, a
-third of the 1 s record, including records whose ends meet and are exact (1.0 s: 3.2x at
-most); a degree-3 fit of the ends does worse (ẍ up to 101x). An end estimator is issue 45's
-first item; until then these cases stay visible here."""
+1/(rolloff cutoff): up to 53 times the interior's RMS error (ẋ, 2.345 s). Marks from the
+ends check over the kernel's decay (1/(rolloff cutoff) from each end) take up to 300 samples
+an end, including records whose ends meet and are exact (1.0 s: 3.2x at most): measured with
+the estimates kept, they leave 58 % of a 1 s record's interior valid at the preset and none
+at the tuned setting, too few to be useful; a degree-3 fit of the ends does worse (ẍ up to
+101x). An end estimator, or a mark that reads the record's own joins, is issue 45's; until
+then these cases stay visible here."""
 
 
 def on_lengths(*durations_s: float) -> list:
