@@ -145,7 +145,9 @@ def test_not_exact_one_degree_above_the_claim(name, params):
     def error(degree, order):  # in units of the derivative of u^degree's natural size 1/L^n
         poly = np.polynomial.Polynomial.basis(degree)
         estimate = method(poly(u), DT, orders=(order,))
-        valid = estimate.valid[order]
+        # where the exactness test looks: every estimated sample of a native method
+        native = methods.package_of(name).startswith("diffbench")
+        valid = estimate.estimated(order) if native else estimate.valid[order]
         truth = poly.deriv(order)(u) / scale_s**order
         return np.max(np.abs(estimate[order][valid] - truth[valid])) * scale_s**order
 

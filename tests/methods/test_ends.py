@@ -106,7 +106,9 @@ def test_kalman_starts_on_the_data_not_on_its_prior():
 def test_jacobi_shifted_ends_are_numpys_weighted_fit_at_each_sample(kappa, mu, q):
     """The first and last M samples: the n-th derivative, at the sample's own position, of the
     polynomial numpy fits to the first (last) window with the weights (1-τ)^μ (1+τ)^κ."""
-    method = methods.get("jacobi", kappa=kappa, mu=mu, q=q, window_s=0.04, accel_window_s=0.04)
+    method = methods.get(
+        "jacobi", kappa=kappa, mu=mu, q=q, window_s=0.04, accel_window_s=0.04, ends="shifted"
+    )
     x = np.random.default_rng(3).standard_normal(300)
     values, _ = method._estimate(x, DT, (0, 1, 2))
     m = 20
@@ -126,14 +128,48 @@ def test_jacobi_shifted_ends_are_numpys_weighted_fit_at_each_sample(kappa, mu, q
         )
 
 
-def test_jacobi_central_mode_keeps_the_papers_masked_ends():
+@pytest.mark.parametrize(("kappa", "mu", "q", "end_degree"), [(2.0, 5.0, 3, 2), (6.0, 6.0, 2, 3)])
+def test_jacobi_boundary_ends_are_numpys_weighted_fit_at_each_sample(kappa, mu, q, end_degree):
+    """The first and last M samples of ``ends="boundary"``: the n-th derivative, at the
+    sample, of the polynomial numpy fits to the samples within M steps of it that the record
+    holds, weighted by (1-τ)^μ (1+τ)^κ of their offset τ = (t - t_k)/(M dt), of the degree
+    rising linearly from ``end_degree`` at the edge to the interior's n+q."""
+    method = methods.get(
+        "jacobi",
+        kappa=kappa,
+        mu=mu,
+        q=q,
+        window_s=0.04,
+        accel_window_s=0.04,
+        end_degree=end_degree,
+    )
+    n, m = 300, 20
+    x = np.random.default_rng(3).standard_normal(n)
+    values, _ = method._estimate(x, DT, (0, 1, 2))
+    t = np.arange(n) * DT
+    for order in (0, 1, 2):
+        top = order + q + (1 if kappa == mu and q % 2 == 0 else 0)
+        edge = min(max(order, end_degree), top)
+        scale = np.max(np.abs(values[order][m:-m]))
+        for k in range(m):
+            degree = round(edge + (top - edge) * k / m)
+            for sample in (k, n - 1 - k):
+                near = np.abs(np.arange(n) - sample) <= m
+                tau = np.clip((t[near] - t[sample]) / (m * DT), -1.0, 1.0)
+                weights = (1 - tau) ** mu * (1 + tau) ** kappa
+                fit = np.polynomial.Polynomial.fit(t[near], x[near], degree, w=np.sqrt(weights))
+                expected = fit.deriv(order)(t[sample])
+                assert abs(values[order][sample] - expected) <= 1e-8 * scale, (order, sample)
+
+
+def test_jacobi_central_mode_keeps_the_papers_unestimated_ends():
     realisation = signals.get_scenario("paper-signal-clean").realise(0)
     central = methods.get("jacobi", ends="central")(realisation.x, DT)
-    shifted = methods.get("jacobi")(realisation.x, DT)
+    boundary = methods.get("jacobi")(realisation.x, DT)
     assert not central.valid[1][:105].any() and central.valid[1][105:-105].all()
-    assert shifted.coverage(1) > central.coverage(1)
+    assert not central.estimated(1)[:105].any() and boundary.estimated(1).all()
     both = central.valid[1]
-    np.testing.assert_array_equal(central[1][both], shifted[1][both])
+    np.testing.assert_array_equal(central[1][both], boundary[1][both])
 
 
 @pytest.mark.parametrize("scenario", ["grid-sinusoid-0.2-1ms", "paper-signal-4937ms"])
