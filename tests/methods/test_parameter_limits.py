@@ -337,13 +337,17 @@ def test_a_rule_that_fails_on_every_window_is_named_with_the_rules_that_work(par
     assert working["window_s"] == shortest
 
 
-def test_heavy_jacobi_weights_on_a_short_window_still_give_exact_shifted_ends():
+@pytest.mark.parametrize("ends", ["shifted", "boundary"])
+def test_heavy_jacobi_weights_on_a_short_window_still_give_exact_ends(ends):
     """kappa = mu = 139 on 5 taps: the two end nodes weigh 0 and the next ones 4e-18 of the
-    centre, so the degree-3 end fit for the second derivative had 3 samples to fit 4
-    coefficients (CI: numpy's LinAlgError, singular matrix). The end fit now drops to the
-    degree its weighted samples determine; every order stays exact on polynomials of the
-    degree it claims wherever it is marked valid (the ends check masks the end samples these
-    near-zero weights leave too noisy, see methods._ends), and nothing raises."""
+    centre, so the degree-3 shifted fit for the second derivative had 3 samples to fit 4
+    coefficients (CI: numpy's LinAlgError, singular matrix). Both end fits now drop to the
+    degree their weighted samples determine, and nothing raises. Shifted: every sample is
+    estimated, exact on the claimed degree wherever it is marked valid (the ends check marks
+    the end samples these near-zero weights leave too noisy, see methods._ends). Boundary:
+    ẍ's first and last two samples see one weighted sample on their side of the window, too
+    few for a degree-2 fit, so they get no estimate (NaN); every other sample is estimated and
+    exact."""
     dt = 1e-4
     method = methods.get(
         "jacobi",
@@ -353,7 +357,7 @@ def test_heavy_jacobi_weights_on_a_short_window_still_give_exact_shifted_ends():
         window_s=0.004,
         accel_window_s=0.0004,
         rule="least_squares",
-        ends="shifted",
+        ends=ends,
     )
     t = np.arange(301) * dt
     reach = {0: 20, 1: 20, 2: 2}  # half the window, in steps
@@ -362,10 +366,13 @@ def test_heavy_jacobi_weights_on_a_short_window_still_give_exact_shifted_ends():
         coefficients = np.arange(1.0, degree + 2) * 10.0 ** np.arange(degree + 1)
         signal = np.polynomial.Polynomial(coefficients)
         estimate = method(signal(t), dt)
-        valid = estimate.valid[order]
+        valid, estimated = estimate.valid[order], estimate.estimated(order)
         assert valid[reach[order] : -reach[order]].all(), order
+        missing = [0, 1, 299, 300] if ends == "boundary" and order == 2 else []
+        assert list(np.flatnonzero(~estimated)) == missing, order
+        checked = valid if ends == "shifted" else estimated
         np.testing.assert_allclose(
-            estimate[order][valid], signal.deriv(order)(t[valid]), rtol=1e-9, atol=1e-9
+            estimate[order][checked], signal.deriv(order)(t[checked]), rtol=1e-9, atol=1e-9
         )
 
 
@@ -407,33 +414,3 @@ def test_windows_a_refusal_suggests_are_admissible(name, window_s, degree):
             assert estimate.valid[1].any(), (message, value)
     else:
         assert degree < round(window_s / dt) + 1  # it fits: nothing to suggest
-
-
-def test_heavy_jacobi_weights_on_a_short_window_leave_unfit_boundary_samples_unestimated():
-    """The same design with ``ends="boundary"``: ẍ's first and last two samples see one
-    weighted sample on their side of a 5-tap window (the next weighs 4e-18, the edge 0), too
-    few for a degree-2 fit, so they get no estimate (NaN, not valid); every other sample is
-    estimated, exact on the claimed degree, and nothing raises."""
-    dt = 1e-4
-    method = methods.get(
-        "jacobi",
-        kappa=139.0,
-        mu=139.0,
-        q=0,
-        window_s=0.004,
-        accel_window_s=0.0004,
-        rule="least_squares",
-    )
-    t = np.arange(301) * dt
-    for order in ORDERS:
-        degree = method.exact_degree(order)
-        signal = np.polynomial.Polynomial(
-            np.arange(1.0, degree + 2) * 10.0 ** np.arange(degree + 1)
-        )
-        estimate = method(signal(t), dt)
-        estimated = estimate.estimated(order)
-        missing = np.flatnonzero(~estimated)
-        assert list(missing) == ([0, 1, 299, 300] if order == 2 else []), order
-        np.testing.assert_allclose(
-            estimate[order][estimated], signal.deriv(order)(t[estimated]), rtol=1e-9, atol=1e-9
-        )
