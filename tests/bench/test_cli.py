@@ -87,9 +87,9 @@ def test_run_writes_store_and_tables_then_resumes(tmp_path, capsys):
 
 
 def test_rankings_on_the_whole_record_take_every_sample_each_entry_estimates(tmp_path):
-    """Jacobi's paper-signal preset marks 14 % of the record not valid (its shifted end
-    windows amplify the noise) but estimates every sample: it is ranked on the whole record
-    by its RMSE over every sample, beside spectral; the valid share is its own column."""
+    """Jacobi's paper-signal preset marks part of its ends not valid (2 % of the record for
+    ẋ) but estimates every sample: it is ranked on the whole record by its RMSE over every
+    sample, beside spectral; the valid share is its own column."""
     import pandas as pd
 
     args = [
@@ -106,7 +106,7 @@ def test_rankings_on_the_whole_record_take_every_sample_each_entry_estimates(tmp
     assert main(args) == 0
     ranked = pd.read_csv(tmp_path / "paper-signal" / "ranking.csv")
     rmse = pd.read_csv(tmp_path / "paper-signal" / "rmse.csv").set_index("method")
-    assert rmse.loc["jacobi", "valid ẋ mean"] < 0.9
+    assert rmse.loc["jacobi", "valid ẋ mean"] < 1.0
     assert rmse.loc["jacobi", "estimated ẋ mean"] == 1.0
     for symbol in ("ẋ", "ẍ"):
         interior = ranked[(ranked["derivative"] == symbol) & (ranked["region"] == "interior")]
