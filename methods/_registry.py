@@ -32,6 +32,7 @@ from diffbench.methods._validation import (
     check_orders,
     check_signal,
     check_times,
+    finite_samples,
     is_uniform,
     mean_step,
 )
@@ -186,8 +187,7 @@ class Estimate:
             mask = self.valid[order]
             if mask.shape != value.shape[:1]:
                 raise ValueError(f"valid mask of order {order} does not match the time axis")
-            finite = np.isfinite(value).reshape(value.shape[0], -1).all(axis=1)
-            if (mask & ~finite).any():
+            if (mask & ~finite_samples(value)).any():
                 raise ValueError(f"order {order}: the estimate is not finite on a valid sample")
 
     @property
@@ -206,8 +206,7 @@ class Estimate:
     def estimated(self, order: int) -> np.ndarray:
         """Boolean mask over axis 0 of the samples where the derivative of ``order`` is
         estimated (finite on every channel), trusted or not."""
-        value = self[order]
-        return np.isfinite(value).reshape(value.shape[0], -1).all(axis=1)
+        return finite_samples(self[order])
 
     def trusted(self, order: int) -> np.ndarray:
         """The derivative of ``order`` with NaN on the samples that are not valid."""

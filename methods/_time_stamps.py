@@ -25,6 +25,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from diffbench.methods._validation import finite_samples
+
 ON_GRID_TOLERANCE = 1e-9
 """Relative difference from the nominal step below which the span's own step is taken (the
 record's ends lie on the nominal grid)."""
@@ -67,7 +69,7 @@ def from_grid(
     estimated (finite) grid sample gives the other times within the estimated span; times
     beyond it are NaN."""
     out = np.full((times.size, *values.shape[1:]), np.nan)
-    estimated = np.flatnonzero(np.isfinite(values).reshape(values.shape[0], -1).all(axis=1))
+    estimated = np.flatnonzero(finite_samples(values))
     _interpolate(out, values, grid, times, estimated)
     inside = _interpolate(out, values, grid, times, np.flatnonzero(valid))
     return out, inside

@@ -287,6 +287,12 @@ def as_real_array(name: str, value, what: str, allow_bool: bool = False) -> np.n
         ) from None
 
 
+def finite_samples(values: np.ndarray) -> np.ndarray:
+    """Boolean mask over axis 0 (time) of the samples finite on every channel."""
+    values = np.asarray(values)
+    return np.isfinite(values).reshape(values.shape[0], -1).all(axis=1)
+
+
 def mean_step(times: np.ndarray) -> float:
     """The mean step :math:`(t_{n-1} - t_0)/(n - 1)` of checked time stamps."""
     return float((times[-1] - times[0]) / (times.size - 1))

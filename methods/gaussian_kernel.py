@@ -9,7 +9,7 @@ import numpy as np
 from diffbench.methods._ends import trusted_times
 from diffbench.methods._local_poly import kernel_end_fits, kernel_weighted_fit_at
 from diffbench.methods._registry import FirMethod, Preset, param, register
-from diffbench.methods._validation import MAX_WINDOW_STEPS
+from diffbench.methods._validation import MAX_WINDOW_STEPS, finite_samples
 
 TRUNCATE = 4.0
 """The taps reach ``TRUNCATE`` standard deviations each side (the Gaussian is 3.4e-4 of its
@@ -145,7 +145,7 @@ class GaussianKernel(FirMethod):
             # derivative is (-1)^n times the record's
             y[n - half_width :] = (-1) ** order * kernel_end_fits(flat[::-1], *fit)[::-1]
             values[order] = y.reshape(x.shape)
-        valid = {order: np.isfinite(values[order]).reshape(n, -1).all(axis=1) for order in orders}
+        valid = {order: finite_samples(values[order]) for order in orders}
         return values, valid
 
     def _estimate_away_from_ends(self, x, dt, orders):

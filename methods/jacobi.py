@@ -13,7 +13,7 @@ from diffbench.methods._local_poly import (
     kernel_weighted_fit_at,
 )
 from diffbench.methods._registry import FirMethod, Preset, param, register
-from diffbench.methods._validation import MAX_WINDOW_STEPS, DeferredValueError
+from diffbench.methods._validation import MAX_WINDOW_STEPS, DeferredValueError, finite_samples
 from diffbench.methods.jacobi_kernel import (
     MAX_AMPLIFICATION,
     MAX_EXPONENT,
@@ -385,10 +385,14 @@ class Jacobi(FirMethod):
         return int(np.count_nonzero(half > half.max() * WEIGHT_FLOOR))
 
     def _weights(self, m: int) -> np.ndarray:
-        """:math:`(1-\\tau)^{\\mu}(1+\\tau)^{\\kappa}` at the window's 2m + 1 nodes (negative
-        exponents taken as 0)."""
-        nodes = np.arange(-m, m + 1) / m
-        return (1 - nodes) ** max(self.mu, 0.0) * (1 + nodes) ** max(self.kappa, 0.0)
+        """The weight at the window's 2m + 1 nodes (:meth:`_weight`)."""
+        return self._weight(np.arange(-m, m + 1) / m)
+
+    def _weight(self, tau: np.ndarray) -> np.ndarray:
+        """:math:`(1-\\tau)^{\\mu}(1+\\tau)^{\\kappa}` at offsets ``tau`` (window half-widths,
+        clipped to [-1, 1]; negative exponents taken as 0)."""
+        tau = np.clip(tau, -1.0, 1.0)
+        return (1 - tau) ** max(self.mu, 0.0) * (1 + tau) ** max(self.kappa, 0.0)
 
     def _boundary_degrees(self, order: int, m: int) -> np.ndarray:
         """The boundary fits' degree at end samples 0..m-1 (0 at the record's edge): from
@@ -403,11 +407,9 @@ class Jacobi(FirMethod):
         """``filtered`` (the central filter's output) with its first and last ``m`` samples the
         boundary fits of ``ends="boundary"``, at :meth:`_boundary_degrees`."""
         n = x.shape[0]
-        mu, kappa = max(self.mu, 0.0), max(self.kappa, 0.0)
 
         def weight(offset_s):
-            tau = np.clip(offset_s / (m * dt), -1.0, 1.0)
-            return (1 - tau) ** mu * (1 + tau) ** kappa
+            return self._weight(offset_s / (m * dt))
 
         degrees = self._boundary_degrees(order, m)
         size = min(n, 2 * m + 1)
@@ -443,16 +445,15 @@ class Jacobi(FirMethod):
                         f"`x` has {x.shape[0]} samples, fewer than the window's {2 * m + 1}"
                     )
                 values[order] = self._boundary_ends(x, dt, order, m, central[order][0])
-                valid[order] = np.isfinite(values[order]).reshape(x.shape[0], -1).all(axis=1)
-                continue
-            weights = self._weights(m)
-            # a fit needs degree + 1 samples that carry weight: the end nodes carry none for
-            # κ, μ > 0, and large κ, μ leave few more (κ = μ = 139 on 5 taps: one in 1e17)
-            carrying = np.count_nonzero(weights > weights.max() * WEIGHT_FLOOR)
-            degree = min(self._fit_degree(order), carrying - 1)
-            ends = end_evaluators(m, degree, order, dt, sample_weights=weights)
-            values[order] = apply_fir_with_ends(x, taps[order], ends, central[order][0])
-            valid[order] = np.isfinite(values[order]).reshape(x.shape[0], -1).all(axis=1)
+            else:
+                weights = self._weights(m)
+                # a fit needs degree + 1 samples that carry weight: the end nodes carry none
+                # for κ, μ > 0, and large κ, μ leave few more (κ = μ = 139 on 5 taps: 1 in 1e17)
+                carrying = np.count_nonzero(weights > weights.max() * WEIGHT_FLOOR)
+                degree = min(self._fit_degree(order), carrying - 1)
+                ends = end_evaluators(m, degree, order, dt, sample_weights=weights)
+                values[order] = apply_fir_with_ends(x, taps[order], ends, central[order][0])
+            valid[order] = finite_samples(values[order])
         return values, valid
 
     def exact_degree(self, order: int) -> float | None:

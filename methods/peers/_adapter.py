@@ -7,6 +7,7 @@ from typing import ClassVar
 import numpy as np
 
 from diffbench.methods._registry import Method, Preset
+from diffbench.methods._validation import finite_samples
 
 
 def tuned_preset(peer: str, **values) -> dict[str, Preset]:
@@ -70,7 +71,7 @@ class PeerMethod(Method):
         values, valid = {}, {}
         for order in orders:
             value = np.array(computed[order], dtype=float).reshape(x.shape)
-            finite = np.isfinite(value).reshape(value.shape[0], -1).all(axis=1)
+            finite = finite_samples(value)
             value[~finite] = np.nan
             if not finite.any():
                 setting = ", ".join(f"`{k}`={v!r}" for k, v in self.params().items())
