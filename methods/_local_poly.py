@@ -285,6 +285,37 @@ def kernel_weighted_fit_at(
     """
     n = times.size
     flat = x.reshape(n, -1)
+    out = np.empty((np.size(at), flat.shape[1]))
+    for rows, index, root, q, z in _kernel_fit_blocks(times, at, reach_s, degree, order, kernel):
+        # the estimate is e^T R^{-1} Q^T sqrt(w) x, with e the derivative's row at u = 0
+        projected = np.swapaxes(q, 1, 2) @ (root[..., None] * flat[index])
+        out[rows] = (np.swapaxes(z, 1, 2) @ projected)[:, 0]
+    return out / reach_s**order
+
+
+def kernel_weighted_weights_at(
+    times: np.ndarray, at: np.ndarray, reach_s: float, degree: int, order: int, kernel
+) -> np.ndarray:
+    r"""The weights of :func:`kernel_weighted_fit_at`: the matrix ``W`` (``at.size`` by
+    ``times.size``) with :math:`\hat x^{(n)}_a = \sum_j W_{aj} x_j`, row a being
+    :math:`\sqrt{w}\, Q R^{-\top} e / r^n` of the same QR factorisation (zero outside the
+    window). The fit is linear in the data, so a caller that applies it to many records at
+    the same times computes these once (one matrix product a record instead of a QR a
+    sample); the two agree to rounding."""
+    at = np.asarray(at, dtype=np.intp)
+    n = times.size
+    weights = np.zeros((at.size, n + 1))  # the last column takes the windows' padding
+    for rows, index, root, q, z in _kernel_fit_blocks(times, at, reach_s, degree, order, kernel):
+        columns = np.where(root > 0, index, n)
+        weights[np.arange(at.size)[rows, None], columns] = root * (q @ z)[..., 0]
+    return weights[:, :n] / reach_s**order
+
+
+def _kernel_fit_blocks(times, at, reach_s, degree, order, kernel):
+    """The QR factorisations of :func:`kernel_weighted_fit_at`, a block of evaluation times
+    at a time: yields (rows of ``at``, the windows' sample indices, sqrt of their weights, Q,
+    and z = R^{-T} e), the windows padded to the widest with weight 0."""
+    n = times.size
     at = np.asarray(at, dtype=np.intp)
     spans = sample_spans(times)
     slack = 1e-9 * reach_s
@@ -299,7 +330,6 @@ def kernel_weighted_fit_at(
             f"{degree + 1}: use a wider kernel"
         )
     evaluate = _derivative_rows_at(0.0, degree, order)[0]  # d^n/du^n of P_0..P_d at u = 0
-    out = np.empty((at.size, flat.shape[1]))
     width = int(counts.max()) if at.size else 0
     chunk = max(1, KERNEL_FIT_CHUNK_ELEMENTS // max(1, width * (degree + 1)))
     offsets_in_window = np.arange(width)
@@ -313,11 +343,8 @@ def kernel_weighted_fit_at(
         root = np.sqrt(weight)
         u = np.clip(offsets / reach_s, -1.0, 1.0)
         q, r = np.linalg.qr(legendre.legvander(u, degree) * root[..., None])
-        # the estimate is e^T R^{-1} Q^T sqrt(w) x, with e the derivative's row at u = 0
         z = np.linalg.solve(np.swapaxes(r, 1, 2), np.broadcast_to(evaluate, r.shape[:2])[..., None])
-        projected = np.swapaxes(q, 1, 2) @ (root[..., None] * flat[index])
-        out[rows] = (np.swapaxes(z, 1, 2) @ projected)[:, 0]
-    return out / reach_s**order
+        yield rows, index, root, q, z
 
 
 KERNEL_FIT_CHUNK_ELEMENTS = 2_000_000

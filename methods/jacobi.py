@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -11,6 +12,7 @@ from diffbench.methods._local_poly import (
     apply_fir_with_ends,
     end_evaluators,
     kernel_weighted_fit_at,
+    kernel_weighted_weights_at,
 )
 from diffbench.methods._registry import FirMethod, Preset, param, register
 from diffbench.methods._validation import MAX_WINDOW_STEPS, DeferredValueError, finite_samples
@@ -407,14 +409,20 @@ class Jacobi(FirMethod):
         """``filtered`` (the central filter's output) with its first and last ``m`` samples the
         boundary fits of ``ends="boundary"``, at :meth:`_boundary_degrees`."""
         n = x.shape[0]
+        size = min(n, 2 * m + 1)
+        out = np.array(filtered, dtype=np.float64).reshape(n, -1)
+        if m * size <= CACHED_END_WEIGHTS:
+            starts, ends = _boundary_weights(self, order, m, size)
+            scale = 1.0 / dt**order
+            out[:m] = scale * (starts @ x[:size].reshape(size, -1))
+            out[n - m :] = scale * (ends @ x[n - size :].reshape(size, -1))
+            return out.reshape(filtered.shape)
 
         def weight(offset_s):
             return self._weight(offset_s / (m * dt))
 
         degrees = self._boundary_degrees(order, m)
-        size = min(n, 2 * m + 1)
         times = np.arange(size) * dt
-        out = np.array(filtered, dtype=np.float64).reshape(n, -1)
         for degree in np.unique(degrees):
             at = np.flatnonzero(degrees == degree)
             if degree < order:  # too few samples carry weight to fit a derivative of order
@@ -462,6 +470,39 @@ class Jacobi(FirMethod):
         if self.ends == "boundary":
             return min(self._fit_degree(order), max(order, self.end_degree))
         return self._fit_degree(order)
+
+
+CACHED_END_WEIGHTS = 1_000_000
+"""The most weights (end samples times window samples, per end) of Jacobi's boundary fits
+kept for reuse (8 MB an end); wider windows are fitted record by record."""
+
+
+@functools.lru_cache(maxsize=16)
+def _boundary_weights(method: Jacobi, order: int, m: int, size: int):
+    """The boundary fits of ``ends="boundary"`` as weights, in steps (dt = 1): the matrices
+    (m by ``size``) giving end samples 0..m-1 from the first ``size`` samples and samples
+    n-m..n-1 from the last ``size``, at :meth:`Jacobi._boundary_degrees` (rows of NaN where
+    the degree is below ``order``). The same for every record of a length at least ``size``
+    and every step (the fit scales as 1/dt^order), so computed once per setting: the QR
+    factorisations cost O(m^2 d^2), the product O(m^2) a record."""
+
+    def weight(offset_steps):
+        return method._weight(offset_steps / m)
+
+    degrees = method._boundary_degrees(order, m)
+    times = np.arange(size, dtype=float)
+    starts = np.full((m, size), np.nan)
+    ends = np.full((m, size), np.nan)
+    for degree in np.unique(degrees):
+        at = np.flatnonzero(degrees == degree)
+        if degree < order:  # too few samples carry weight to fit a derivative of order
+            continue
+        fit = (float(m), int(degree), order, weight)
+        starts[at] = kernel_weighted_weights_at(times, at, *fit)
+        # the last samples' fits, in the order n-m..n-1: the last sample is row m-1
+        ends[m - 1 - at] = kernel_weighted_weights_at(times, size - 1 - at, *fit)
+    starts.flags.writeable = ends.flags.writeable = False
+    return starts, ends
 
 
 def _edge(works, inside: float, outside: float) -> float:

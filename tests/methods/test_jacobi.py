@@ -237,3 +237,57 @@ def test_a_refusal_composes_its_search_only_when_read_and_pickles_as_a_value_err
     assert jacobi_kernel.discretisation_error.cache_info().currsize == searched_after  # once
     copy = pickle.loads(pickle.dumps(refused.value))
     assert type(copy) is ValueError and str(copy) == message
+
+
+@pytest.mark.parametrize("order", [0, 1, 2])
+def test_the_boundary_fits_by_stored_weights_are_the_fits(monkeypatch, order):
+    """Boundary ends computed once as weights and applied to two records (the cache) against
+    the same fits by QR record by record: equal to rounding, NaN at the same samples.
+
+    Rounding: both evaluate :math:`e^T R^{-1} Q^T \\sqrt{w} x` of one QR, grouped differently;
+    each product's error is at most :math:`\\gamma_{s+d+1}` (s window samples, d + 1
+    coefficients) times :math:`\\sum_j \\sqrt{w_j} |x_j| \\sum_i |Q_{ji}| |z_i| \\le \\lVert z
+    \\rVert_2 \\sum_j \\sqrt{w_j} |x_j|` (rows of Q have norm at most 1), z = R^{-T} e, whose
+    norm the stored row gives: :math:`\\lVert z\\rVert_2 = \\lVert W_a / \\sqrt{w}\\rVert_2` on
+    the window (seen: at most 0.005 of it)."""
+    from diffbench.methods import jacobi as jacobi_module
+
+    dt = 1e-3
+    method = methods.get("jacobi", window_s=0.1, accel_window_s=0.1, end_degree=4)
+    rng = np.random.default_rng(order)
+    t = np.arange(1201) * dt
+    records = [
+        np.sin(2 * np.pi * 4 * t + phase) + 0.01 * rng.standard_normal(t.size)
+        for phase in (0.0, 1.0)
+    ]
+    stored = [method(x, dt)[order] for x in records]
+    monkeypatch.setattr(jacobi_module, "CACHED_END_WEIGHTS", 0)
+    fitted = [method(x, dt)[order] for x in records]
+    m = method._half_width(order, dt)
+    size = 2 * m + 1
+    starts, ends = jacobi_module._boundary_weights(method, order, m, size)
+    offsets = (np.arange(size)[None, :] - np.arange(m)[:, None]) / m
+    root = {
+        "start": np.sqrt(method._weight(offsets)),
+        "end": np.sqrt(method._weight(-offsets))[::-1, ::-1],
+    }
+    degree = method._fit_degree(order)
+    gamma = (
+        (size + degree + 1) * np.finfo(float).eps / (1 - (size + degree + 1) * np.finfo(float).eps)
+    )
+    for x, a, b in zip(records, stored, fitted, strict=True):
+        np.testing.assert_array_equal(np.isnan(a), np.isnan(b))
+        for end, weights, rows, data in (
+            ("start", starts, slice(0, m), x[:size]),
+            ("end", ends, slice(x.size - m, x.size), x[-size:]),
+        ):
+            carried = root[end] > 0
+            z_norm = np.sqrt(
+                np.sum(
+                    np.where(carried, weights / np.where(carried, root[end], 1.0), 0.0) ** 2, axis=1
+                )
+            )
+            allowed = 2 * gamma * z_norm * (root[end] @ np.abs(data)) / dt**order
+            finite = np.isfinite(a[rows])
+            assert np.all(np.abs(a[rows] - b[rows])[finite] <= allowed[finite]), end
+        np.testing.assert_array_equal(a[m:-m], b[m:-m])
