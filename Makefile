@@ -69,6 +69,13 @@ studies: $(STAMP)
 	  --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal-4937ms --orders 1,2 \
 	  --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --region whole --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench run paper-signal-999ms --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench tune native,$(SPECTRAL_PEERS) paper-signal-999ms --criteria oracle \
+	  --orders 1,2 --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal-999ms --orders 1,2 \
+	  --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal-999ms --orders 1,2 \
+	  --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --region whole --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench run paper-figures --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench run robot-sim --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench run identify-dfki --methods native,$(GRID_PEERS) --jobs 2 --out $(STUDIES)

@@ -304,6 +304,22 @@ register_scenario(
 )
 register_scenario(
     Scenario(
+        name="paper-signal-999ms",
+        signal=PaperSines(frequencies_hz=(4.0, 9.0, 15.0), amplitude=1.0),
+        noise=NoiseStack(_PAPER_NOISE),
+        dt_s=1e-3,
+        duration_s=0.999,
+        interior_margin_s=0.15,
+        description=(
+            "paper-signal with 1000 samples (0 to 0.999 s) instead of 1001: its last sample is "
+            "not the zero every component has at 1 s, so its ends do not meet and an odd "
+            "extension is no longer exact there."
+        ),
+        preset="paper-signal",
+    )
+)
+register_scenario(
+    Scenario(
         name="paper-signal-clean",
         signal=PaperSines(frequencies_hz=(4.0, 9.0, 15.0), amplitude=1.0),
         noise=NoiseStack(()),

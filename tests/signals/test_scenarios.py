@@ -29,6 +29,7 @@ BUILTIN = [
     "damped-gaussian",
     "paper-signal",
     "paper-signal-4937ms",
+    "paper-signal-999ms",
     "paper-signal-clean",
     "paper-signal-quantised",
     "pendulum-500hz-jitter",
@@ -83,6 +84,30 @@ def test_paper_signal_is_the_papers_test_case():
     assert t[0] == 0.0
     assert t[-1] == pytest.approx(1.0, abs=1e-12)
     np.testing.assert_allclose(np.diff(t), 1e-3, rtol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("name", "samples"), [("paper-signal-999ms", 1000), ("paper-signal-4937ms", 4938)]
+)
+def test_the_paper_signals_whose_ends_do_not_meet(name, samples):
+    """The paper's signal and noise on records that end where they end: the 1001-sample
+    record's last sample is at 1 s, where every component (4, 9, 15 Hz) is zero and odd about
+    it; these stop elsewhere, so the record's end is neither zero nor a centre of symmetry."""
+    paper, scenario = get_scenario("paper-signal"), get_scenario(name)
+    assert (scenario.signal, scenario.noise, scenario.dt_s, scenario.preset) == (
+        paper.signal,
+        paper.noise,
+        paper.dt_s,
+        paper.preset,
+    )
+    t = scenario.t
+    assert t.shape == (samples,)
+    np.testing.assert_allclose(np.diff(t), 1e-3, rtol=1e-9)
+    truth = scenario.realise(0).truth
+    at_1s = paper.realise(0).truth
+    # at 1 s the signal and its curvature vanish (to rounding of sin(2 pi f) at f t = 4, 9, 15)
+    assert abs(at_1s[0][-1]) < 1e-12 and abs(at_1s[2][-1]) < 1e-9
+    assert abs(truth[0][-1]) > 0.1 and abs(truth[2][-1]) > 100
 
 
 def test_paper_signal_interior_drops_150_samples_at_each_end():
