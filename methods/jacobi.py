@@ -472,12 +472,13 @@ class Jacobi(FirMethod):
         return self._fit_degree(order)
 
 
-CACHED_END_WEIGHTS = 1_000_000
+CACHED_END_WEIGHTS = 4_000_000
 """The most weights (end samples times window samples, per end) of Jacobi's boundary fits
-kept for reuse (8 MB an end); wider windows are fitted record by record."""
+kept for reuse: 32 MB an end, windows up to 2827 samples; wider ones are fitted record by
+record. With the 8 settings kept, at most 512 MB."""
 
 
-@functools.lru_cache(maxsize=16)
+@functools.lru_cache(maxsize=8)
 def _boundary_weights(method: Jacobi, order: int, m: int, size: int):
     """The boundary fits of ``ends="boundary"`` as weights, in steps (dt = 1): the matrices
     (m by ``size``) giving end samples 0..m-1 from the first ``size`` samples and samples
