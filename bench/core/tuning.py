@@ -88,18 +88,19 @@ class Dimension:
         return round(number) if self.kind == "int" else float(number)
 
 
-REGIONS = ("interior", "whole")
+REGIONS = ("interior", "whole", "interior-estimated")
 SMALL_INTEGER_RANGE = 4
 """Integer parameters with at most this many values are searched like choices, one by one."""
 
 
 def search_space(name: str, dt: float, n_samples: int, region: str = "interior") -> list[Dimension]:
     """The dimensions searched for method ``name`` at step ``dt`` on ``n_samples`` samples, by
-    a loss taken on ``region`` (parameters declared ``ends_only`` only on the whole record)."""
+    a loss taken on ``region`` (parameters declared ``ends_only`` only where it may read
+    estimates the method does not trust: ``whole``, ``interior-estimated``)."""
     cls = methods.method_class(name)
     dimensions = []
     for spec in methods.params_of(cls):
-        if spec.ends_only and region != "whole":
+        if spec.ends_only and region == "interior":
             continue
         if spec.choices is not None:
             if len(spec.choices) > 1 and not spec.untuned:
@@ -311,8 +312,10 @@ def tune(
     by luck, K draws cut that luck by about √K. The realisations must share step and length.
 
     ``region``: the samples the loss is taken on, the scenario's ``"interior"`` (every one of
-    them valid) or the ``"whole"`` record (every sample estimated, valid or not; the
-    parameters declared ``ends_only``, edge treatments, are searched too). The no-truth
+    them valid), the ``"whole"`` record (every sample estimated, valid or not; the
+    parameters declared ``ends_only``, edge treatments, are searched too) or the interior
+    with every sample estimated, valid or not (``"interior-estimated"``: what ``recommend``
+    predicts; a short record's interior reaches samples a method does not trust). The no-truth
     criterion, a spectral estimate that knows no ends, takes the interior only.
 
     Candidates that a method rejects (e.g. a window longer than the signal) or that leave part
@@ -334,7 +337,7 @@ def tune(
         raise ValueError(f"`criterion` must be one of {', '.join(CRITERIA)}, got {criterion!r}")
     if region not in REGIONS:
         raise ValueError(f"`region` must be one of {', '.join(REGIONS)}, got {region!r}")
-    if region == "whole" and criterion == "no-truth":
+    if region != "interior" and criterion == "no-truth":
         raise ValueError(
             "the no-truth criterion knows no ends: tune on the whole record with "
             "'oracle' or 'pynumdiff', or on region 'interior'"
@@ -374,9 +377,9 @@ def tune(
     samples = [np.asarray(r.x, dtype=float) for r in realisations]
     # the samples the loss is taken on
     scored = [
-        np.asarray(r.interior, dtype=bool)
-        if region == "interior"
-        else np.ones(np.shape(r.x)[0], dtype=bool)
+        np.ones(np.shape(r.x)[0], dtype=bool)
+        if region == "whole"
+        else np.asarray(r.interior, dtype=bool)
         for r in realisations
     ]
     splits = (
@@ -409,7 +412,7 @@ def tune(
             )
         except ValueError:
             return math.inf
-        # the interior must be trusted; the whole record estimated, trusted or not
+        # the interior must be trusted; otherwise the samples scored estimated, trusted or not
         covered = estimate.valid[order] if region == "interior" else estimate.estimated(order)
         if not covered[inside].all():
             return math.inf
