@@ -112,8 +112,7 @@ def search_space(name: str, dt: float, n_samples: int, region: str = "interior")
         if spec.kind == "frequency":
             high = min(high, 0.45 / dt)
         if spec.kind == "window":
-            low = max(low, 4 * dt)
-            high = min(high, dt * (n_samples // 3))
+            low, high = window_bounds(low, high, dt, n_samples)
         if low >= high:
             raise NoRoomToTune(
                 f"`{spec.name}` has no room to tune at dt={dt!r} s on {n_samples} samples "
@@ -126,6 +125,26 @@ def search_space(name: str, dt: float, n_samples: int, region: str = "interior")
         kind = "int" if spec.integer else "float"
         dimensions.append(Dimension(spec.name, kind, low, high, log=spec.log))
     return dimensions
+
+
+def window_bounds(low: float, high: float, dt: float, n_samples: int) -> tuple[float, float]:
+    """A window parameter's range ``low``..``high`` (s) on ``n_samples`` at step ``dt``: at
+    least 4 steps, at most a third of the record."""
+    return max(low, 4 * dt), min(high, dt * (n_samples // 3))
+
+
+def fitted_to_record(params: dict[str, Any], names, dt: float, n_samples: int, specs) -> dict:
+    """``params`` with the window parameters among ``names`` (those a tuning leaves at their
+    defaults, e.g. the ẍ window when ẋ is tuned) brought within 4 steps .. a third of the
+    record (:func:`window_bounds`): a default window longer than a short record would fail
+    every candidate although it does not change the estimate tuned. Windows already within
+    are left as they are."""
+    fitted = dict(params)
+    low, high = window_bounds(0.0, math.inf, dt, n_samples)
+    for spec in specs:
+        if spec.name in names and spec.kind == "window" and low <= high:
+            fitted[spec.name] = min(max(fitted[spec.name], low), high)
+    return fitted
 
 
 def snap(params: dict[str, Any], dt: float, specs) -> dict[str, Any]:
@@ -423,7 +442,13 @@ def tune(
             return splits[k].risk(cls(**params), dt, order)
         return no_truth_loss(x[inside], estimate[order][inside], dt, order, gamma)
 
-    defaults = {spec.name: spec.default for spec in methods.params_of(cls)}
+    defaults = fitted_to_record(
+        {spec.name: spec.default for spec in methods.params_of(cls)},
+        fixed,
+        dt,
+        np.shape(first.x)[0],
+        methods.params_of(cls),
+    )
 
     def without_unused(params: dict[str, Any]) -> dict[str, Any]:
         # parameters the other choices leave unused at their defaults: one evaluation each
