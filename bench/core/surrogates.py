@@ -36,6 +36,8 @@ estimate; lines removed before the continuum is estimated).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy import optimize, stats
 from scipy import signal as sps
@@ -67,6 +69,19 @@ END_FRACTION = 0.05
 TIME_BANDWIDTH = 4.0
 """NW of the continuum's multitaper estimate: its resolution is ±NW/T Hz (T: the interior's
 span)."""
+
+SHORT_RECORD_CYCLES = 2.0
+"""A record spanning fewer cycles of its band than this (a band of 0 Hz: none) is short: its
+signal shows as a trend, not as a spectrum, and the surrogates take the record's polynomial
+trend (:func:`record_trend`), its coefficients drawn as the noise leaves them possible
+(:func:`trend_draws`), with its exact derivatives."""
+
+MAX_TREND_DEGREE = 6
+"""The highest degree :func:`record_trend` considers."""
+
+MIN_TREND_DEGREE = 3
+"""The lowest: a cubic, so that ẋ and ẍ of the surrogates vary with what the noise leaves
+possible (:func:`trend_draws`), not fixed at the zero curvature of a line."""
 
 MIN_CONCENTRATION = 0.999
 """The Slepian tapers used keep at least this fraction of their energy within ±NW/T: at
@@ -116,6 +131,12 @@ def surrogate_records(
         np.real((1j * line_omega) ** order * np.exp(1j * argument)) @ line_amplitude[signal]
         for order in range(3)
     ]
+    trend = None
+    if spectrum.band_hz * n_samples * dt < SHORT_RECORD_CYCLES:
+        # a record shorter than its signal's cycles: its signal is its trend (see below)
+        trend = record_trend(t, rest, min_degree=min(MIN_TREND_DEGREE, n_samples // 4))
+        rest = rest - trend(t)
+        fitted += trend.degree() + 1 - 2
     rest_power, continuum_hz, floor = continuum_spectrum(rest, dt, spectrum, interior, fitted)
     signal_power = np.where(
         spectrum.frequency_hz <= continuum_hz, np.maximum(rest_power - floor, 0.0), 0.0
@@ -131,6 +152,8 @@ def surrogate_records(
     amplitude = 2 * np.sqrt(fine_signal / n_samples)  # a_k = sqrt(2 w_k S_k / N), w_k = 2
     omega = 2 * np.pi * fine
     rng = np.random.default_rng([7, seed])
+    if trend is not None:
+        trends = trend_draws(trend, t, floor, count, rng)
     realisations = []
     for index in range(count):
         # the continuum by inverse FFT on the long grid (its derivatives: (iω)^n times each
@@ -142,6 +165,8 @@ def surrogate_records(
             terms = (long / 2) * amplitude * phase * (1j * omega) ** order
             continuum = np.fft.irfft(terms, long)[start : start + n_samples]
             derivatives.append(continuum + line_terms[order])
+        if trend is not None:
+            derivatives = [d + trends[index].deriv(order)(t) for order, d in enumerate(derivatives)]
         truth = signals.Truth(t=t, derivatives=tuple(derivatives))
         noise = _coloured_noise(noise_power, n_samples, rng)
         realisations.append(
@@ -197,6 +222,51 @@ def spectral_lines(
         found_amplitude.append(2 * np.sqrt(power[k] / coherent) / gain)
         lobes[k - 2 : k + 3] = True
     return np.array(found_hz), np.array(found_amplitude), lobes
+
+
+def record_trend(t: np.ndarray, x: np.ndarray, min_degree: int = 0) -> np.polynomial.Polynomial:
+    r"""The polynomial trend of the record ``x`` at times ``t``: the least-squares polynomial
+    (in the scaled time of ``numpy.polynomial.Polynomial.fit``) of the degree d in
+    ``min_degree``..``MAX_TREND_DEGREE`` (and at most n/4) of least Bayesian information
+    criterion,
+
+    .. math:: \mathrm{BIC}_d = n \ln(\mathrm{RSS}_d / n) + (d + 1) \ln n
+
+    (G. Schwarz, "Estimating the dimension of a model", Ann. Statist. 6 (1978) 461-464): the
+    degree beyond which the residual is noise. A residual below rounding (16 eps max|x| a
+    sample) counts as that, so that exact data keep their degree."""
+    n = x.size
+    # a residual at rounding level is no residual: exact data keep their own degree
+    rounding = n * (16 * np.finfo(float).eps * float(np.max(np.abs(x)))) ** 2
+    best, best_bic = None, math.inf
+    for degree in range(min(min_degree, n // 4), min(MAX_TREND_DEGREE, n // 4) + 1):
+        trend = np.polynomial.Polynomial.fit(t, x, degree)
+        residual = max(float(np.sum((x - trend(t)) ** 2)), rounding, np.finfo(float).tiny)
+        bic = n * math.log(residual / n) + (degree + 1) * math.log(n)
+        if bic < best_bic:
+            best, best_bic = trend, bic
+    return best
+
+
+def trend_draws(
+    trend: np.polynomial.Polynomial,
+    t: np.ndarray,
+    noise_variance: float,
+    count: int,
+    rng: np.random.Generator,
+) -> list[np.polynomial.Polynomial]:
+    r"""``count`` trends as the record's noise leaves them possible: the least-squares fit
+    ``trend`` at times ``t`` with its coefficients drawn from their sampling distribution,
+    :math:`c \sim \mathcal N(\hat c, \sigma^2 (V^\top V)^{-1})` (V the Vandermonde matrix
+    of the fit's scaled times, σ² ``noise_variance``). A curvature below what the noise
+    resolves then varies between the surrogates as much as it may in the record: a method
+    that returns ẍ = 0 is not scored as exact on a short record whose curvature the noise
+    hides (fixed at the fit, a line fitted to 16 samples gave every surrogate ẍ = 0)."""
+    scaled = trend.mapparms()[0] + trend.mapparms()[1] * t
+    vandermonde = np.vander(scaled, trend.degree() + 1, increasing=True)
+    covariance = noise_variance * np.linalg.inv(vandermonde.T @ vandermonde)
+    draws = rng.multivariate_normal(trend.coef, covariance, size=count, method="cholesky")
+    return [np.polynomial.Polynomial(c, domain=trend.domain, window=trend.window) for c in draws]
 
 
 def default_scored(n_samples: int) -> np.ndarray:

@@ -88,18 +88,19 @@ class Dimension:
         return round(number) if self.kind == "int" else float(number)
 
 
-REGIONS = ("interior", "whole")
+REGIONS = ("interior", "whole", "interior-estimated")
 SMALL_INTEGER_RANGE = 4
 """Integer parameters with at most this many values are searched like choices, one by one."""
 
 
 def search_space(name: str, dt: float, n_samples: int, region: str = "interior") -> list[Dimension]:
     """The dimensions searched for method ``name`` at step ``dt`` on ``n_samples`` samples, by
-    a loss taken on ``region`` (parameters declared ``ends_only`` only on the whole record)."""
+    a loss taken on ``region`` (parameters declared ``ends_only`` only where it may read
+    estimates the method does not trust: ``whole``, ``interior-estimated``)."""
     cls = methods.method_class(name)
     dimensions = []
     for spec in methods.params_of(cls):
-        if spec.ends_only and region != "whole":
+        if spec.ends_only and region == "interior":
             continue
         if spec.choices is not None:
             if len(spec.choices) > 1 and not spec.untuned:
@@ -111,8 +112,7 @@ def search_space(name: str, dt: float, n_samples: int, region: str = "interior")
         if spec.kind == "frequency":
             high = min(high, 0.45 / dt)
         if spec.kind == "window":
-            low = max(low, 4 * dt)
-            high = min(high, dt * (n_samples // 3))
+            low, high = window_bounds(low, high, dt, n_samples)
         if low >= high:
             raise NoRoomToTune(
                 f"`{spec.name}` has no room to tune at dt={dt!r} s on {n_samples} samples "
@@ -125,6 +125,26 @@ def search_space(name: str, dt: float, n_samples: int, region: str = "interior")
         kind = "int" if spec.integer else "float"
         dimensions.append(Dimension(spec.name, kind, low, high, log=spec.log))
     return dimensions
+
+
+def window_bounds(low: float, high: float, dt: float, n_samples: int) -> tuple[float, float]:
+    """A window parameter's range ``low``..``high`` (s) on ``n_samples`` at step ``dt``: at
+    least 4 steps, at most a third of the record."""
+    return max(low, 4 * dt), min(high, dt * (n_samples // 3))
+
+
+def fitted_to_record(params: dict[str, Any], names, dt: float, n_samples: int, specs) -> dict:
+    """``params`` with the window parameters among ``names`` (those a tuning leaves at their
+    defaults, e.g. the ẍ window when ẋ is tuned) brought within 4 steps .. a third of the
+    record (:func:`window_bounds`): a default window longer than a short record would fail
+    every candidate although it does not change the estimate tuned. Windows already within
+    are left as they are."""
+    fitted = dict(params)
+    low, high = window_bounds(0.0, math.inf, dt, n_samples)
+    for spec in specs:
+        if spec.name in names and spec.kind == "window" and low <= high:
+            fitted[spec.name] = min(max(fitted[spec.name], low), high)
+    return fitted
 
 
 def snap(params: dict[str, Any], dt: float, specs) -> dict[str, Any]:
@@ -311,8 +331,10 @@ def tune(
     by luck, K draws cut that luck by about √K. The realisations must share step and length.
 
     ``region``: the samples the loss is taken on, the scenario's ``"interior"`` (every one of
-    them valid) or the ``"whole"`` record (every sample estimated, valid or not; the
-    parameters declared ``ends_only``, edge treatments, are searched too). The no-truth
+    them valid), the ``"whole"`` record (every sample estimated, valid or not; the
+    parameters declared ``ends_only``, edge treatments, are searched too) or the interior
+    with every sample estimated, valid or not (``"interior-estimated"``: what ``recommend``
+    predicts; a short record's interior reaches samples a method does not trust). The no-truth
     criterion, a spectral estimate that knows no ends, takes the interior only.
 
     Candidates that a method rejects (e.g. a window longer than the signal) or that leave part
@@ -334,7 +356,7 @@ def tune(
         raise ValueError(f"`criterion` must be one of {', '.join(CRITERIA)}, got {criterion!r}")
     if region not in REGIONS:
         raise ValueError(f"`region` must be one of {', '.join(REGIONS)}, got {region!r}")
-    if region == "whole" and criterion == "no-truth":
+    if region != "interior" and criterion == "no-truth":
         raise ValueError(
             "the no-truth criterion knows no ends: tune on the whole record with "
             "'oracle' or 'pynumdiff', or on region 'interior'"
@@ -374,9 +396,9 @@ def tune(
     samples = [np.asarray(r.x, dtype=float) for r in realisations]
     # the samples the loss is taken on
     scored = [
-        np.asarray(r.interior, dtype=bool)
-        if region == "interior"
-        else np.ones(np.shape(r.x)[0], dtype=bool)
+        np.ones(np.shape(r.x)[0], dtype=bool)
+        if region == "whole"
+        else np.asarray(r.interior, dtype=bool)
         for r in realisations
     ]
     splits = (
@@ -409,7 +431,7 @@ def tune(
             )
         except ValueError:
             return math.inf
-        # the interior must be trusted; the whole record estimated, trusted or not
+        # the interior must be trusted; otherwise the samples scored estimated, trusted or not
         covered = estimate.valid[order] if region == "interior" else estimate.estimated(order)
         if not covered[inside].all():
             return math.inf
@@ -420,7 +442,13 @@ def tune(
             return splits[k].risk(cls(**params), dt, order)
         return no_truth_loss(x[inside], estimate[order][inside], dt, order, gamma)
 
-    defaults = {spec.name: spec.default for spec in methods.params_of(cls)}
+    defaults = fitted_to_record(
+        {spec.name: spec.default for spec in methods.params_of(cls)},
+        fixed,
+        dt,
+        np.shape(first.x)[0],
+        methods.params_of(cls),
+    )
 
     def without_unused(params: dict[str, Any]) -> dict[str, Any]:
         # parameters the other choices leave unused at their defaults: one evaluation each

@@ -14,12 +14,13 @@ The settings are those for the scaled record: the same for a linear method, and 
 whose settings depend on the amplitude (a total-variation penalty) those of ``x / scale``; the
 estimates written for the record are computed on it that way and scaled back.
 
-The error is predicted over the *scored* samples (default all but the first and last 5 %)
-that the method marks valid; the derivatives file written for a record flags exactly those
-as valid. A method's own mask may keep its last samples while they are many times worse than
-its middle (a spectral method's, on a record whose ends do not meet: 10 to 20 times), and
-the surrogates, whose ends are not the record's, do not predict them: they are written, but
-flagged.
+The error is predicted over the *scored* samples (default all but the first and last 5 %),
+every one as the method estimates it, whether it marks it valid or not (on a record of 16
+samples the scored samples are all of them, and every method marks some end samples); the
+derivatives file written for a record flags the samples the method marks valid. A method's
+marks may keep its last samples while they are many times worse than its middle (a spectral
+method's, on a record whose ends do not meet: 10 to 20 times), and the surrogates, whose
+ends are not the record's, do not predict them: they are written, but flagged.
 """
 
 from __future__ import annotations
@@ -42,6 +43,10 @@ from diffbench.bench.report.tables import markdown_table
 
 TUNING_SURROGATES = 2
 """Surrogates a method is tuned on (their mean loss: one draw can favour a setting by luck)."""
+
+REGION = "interior-estimated"
+"""What the error is predicted over, tuned on and checked against (the tuner's region): the
+scored samples, every one as estimated, trusted or not."""
 
 SCORING_SURROGATES = 4
 """Other surrogates the tuned setting is scored on: the predicted RMSE and its spread."""
@@ -161,7 +166,20 @@ def _tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed) -> di
     start = time.perf_counter()
     row = {"order": order, "method": name, "package": methods.package_of(name)}
     try:
-        result = tune(name, tuning, order, "oracle", max_evaluations=max_evaluations, seed=seed)
+        result = tune(
+            name,
+            tuning,
+            order,
+            "oracle",
+            max_evaluations=max_evaluations,
+            seed=seed,
+            region=REGION,
+        )
+        if not math.isfinite(result.loss):
+            raise ValueError(
+                "no setting in its tuning range estimates every scored sample of the "
+                "surrogates (the record may be too short for it)"
+            )
     except ValueError as error:
         failed = dict.fromkeys(("predicted_rmse", "spread", "coverage"), math.nan)
         return {
@@ -178,13 +196,12 @@ def _tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed) -> di
         except ValueError:
             errors.append(math.inf)
             continue
-        valid = estimate.valid[order]
-        scored = realisation.interior & valid
-        if scored.sum() < realisation.interior.sum():
-            errors.append(math.inf)  # the tuner's rule: every interior sample estimated
+        scored = realisation.interior
+        if not estimate.estimated(order)[scored].all():
+            errors.append(math.inf)  # the tuner's rule: every scored sample estimated
             continue
         errors.append(error_metrics(estimate[order], realisation.truth[order], scored)["rmse"])
-        coverage.append(float(valid.mean()))
+        coverage.append(float(estimate.valid[order].mean()))
     finite = np.isfinite(errors)
     return {
         **row,
@@ -419,7 +436,12 @@ def validate(scenario: str, names=VALIDATION_METHODS, seed: int = 0, max_evaluat
         for candidate in names:
             try:
                 oracle[candidate] = tune(
-                    candidate, realisation, order, "oracle", max_evaluations=max_evaluations
+                    candidate,
+                    realisation,
+                    order,
+                    "oracle",
+                    max_evaluations=max_evaluations,
+                    region=REGION,
                 ).loss
             except ValueError:
                 continue
@@ -432,6 +454,7 @@ def validate(scenario: str, names=VALIDATION_METHODS, seed: int = 0, max_evaluat
                         "pynumdiff",
                         cutoff_hz=guess_hz,
                         max_evaluations=max_evaluations,
+                        region=REGION,
                     )
                 except ValueError:
                     pass
@@ -484,7 +507,9 @@ def with_best_known(row: dict) -> dict:
 
 def _true_rmse(realisation, name: str, params: dict, order: int) -> float:
     estimate = methods.get(name, **params)(realisation.x, realisation.dt_s, (order,))
-    scored = realisation.interior & estimate.valid[order]
+    scored = realisation.interior
+    if not estimate.estimated(order)[scored].all():
+        return math.inf
     return error_metrics(estimate[order], realisation.truth[order], scored)["rmse"]
 
 

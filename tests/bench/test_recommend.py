@@ -8,9 +8,11 @@ from diffbench import methods, signals
 from diffbench.bench.core.scores import error_metrics
 from diffbench.bench.core.spectrum import periodogram, record_spectrum
 from diffbench.bench.core.surrogates import (
+    SHORT_RECORD_CYCLES,
     continuum_spectrum,
     default_scored,
     fit_lines,
+    record_trend,
     spectral_lines,
     surrogate_records,
 )
@@ -180,3 +182,72 @@ def test_the_surrogates_score_the_samples_asked_for(paper):
     assert default_scored(1000).sum() == 900
     with pytest.raises(ValueError, match="`scored` must be a boolean mask of 1001 samples"):
         surrogate_records(spectrum, paper.x, paper.dt_s, count=1, scored=paper.interior[:10])
+
+
+def test_a_short_record_s_trend_is_its_least_bic_polynomial():
+    """record_trend: a noiseless cubic comes back as itself (BIC falls without bound as the
+    residual vanishes), to rounding of a well-conditioned scaled fit; a line in noise comes
+    back as a line (higher terms do not lower the residual enough to pay ln n each), and at
+    least a cubic when one is asked for."""
+    t = np.arange(32) * 0.01
+    cubic = np.polynomial.Polynomial([0.3, -1.0, 2.0, 40.0])
+    trend = record_trend(t, cubic(t))
+    assert trend.degree() == 3
+    np.testing.assert_allclose(trend(t), cubic(t), rtol=0, atol=1e-12 * np.abs(cubic(t)).max())
+    noisy_line = 0.5 + 2.0 * t + 0.01 * np.random.default_rng(0).standard_normal(t.size)
+    assert record_trend(t, noisy_line).degree() == 1
+    assert record_trend(t, noisy_line, min_degree=3).degree() >= 3
+
+
+def test_a_short_record_s_surrogates_vary_its_trend_as_its_noise_allows():
+    """16 samples of sin 3t over 0.15 s (noise 0.01): far less than a cycle, no spectrum to
+    read; the surrogates keep the record's cubic trend, its coefficients drawn from their
+    sampling distribution, so their ẍ is not fixed at a line's zero, and spreads about as
+    much as the cubic fit's curvature is uncertain: at the middle, σ sqrt((VᵀV)⁻¹ row of the
+    curvature), within a factor 2 over 40 draws (the sample standard deviation of 40 normal
+    draws is within 30 % of the true one with chance above 0.99)."""
+    dt = 0.01
+    t = np.arange(16) * dt
+    x = np.sin(3 * t) + 0.01 * np.random.default_rng(1).standard_normal(t.size)
+    spectrum = record_spectrum(x, dt)
+    assert spectrum.band_hz * t.size * dt < SHORT_RECORD_CYCLES
+    drawn = surrogate_records(spectrum, x, dt, 40, seed=0)
+    middle = np.array([r.truth[2][8] for r in drawn])
+    assert np.all(np.isfinite(middle)) and np.std(middle) > 0
+    trend = record_trend(t, x, min_degree=3)
+    u = trend.mapparms()[0] + trend.mapparms()[1] * t
+    vandermonde = np.vander(u, trend.degree() + 1, increasing=True)
+    # ẍ at sample 8 as a linear function of the scaled coefficients, in s^-2
+    row = np.array(
+        [j * (j - 1) * u[8] ** (j - 2) if j >= 2 else 0.0 for j in range(trend.degree() + 1)]
+    )
+    row *= trend.mapparms()[1] ** 2
+    expected = np.sqrt(
+        spectrum.noise_floor * row @ np.linalg.inv(vandermonde.T @ vandermonde) @ row
+    )
+    assert 0.5 < np.std(middle, ddof=1) / expected < 2.0
+
+
+@pytest.mark.parametrize(("samples", "seed"), [(16, 1), (64, 0)])
+def test_recommend_on_a_short_record_ranks_methods_and_is_not_too_hopeful(samples, seed):
+    """sin 3t sampled every 10 ms with noise 0.01, 16 and 64 samples (0.15 and 0.63 s, a
+    fraction of the 2.1 s cycle): most methods are ranked, and the first one's true RMSE on
+    the record (every scored sample, as recommend predicts) is at most 3 times the predicted
+    one, for ẋ and ẍ (seen: 0.56 and 0.71 on 16 samples, 2.0 and 1.8 on 64). Before the
+    surrogates kept the short record's trend, ẍ was recommended as a degree-1 Savitzky-Golay
+    fit (ẍ = 0) with a predicted RMSE of 0."""
+    names = ["gaussian_process", "kalman", "savitzky_golay", "spectral", "smoothing_spline"]
+    dt = 0.01
+    t = np.arange(samples) * dt
+    x = np.sin(3 * t) + 0.01 * np.random.default_rng(seed).standard_normal(samples)
+    advice = recommend(x, dt, names, max_evaluations=60)
+    truth = {1: 3 * np.cos(3 * t), 2: -9 * np.sin(3 * t)}
+    scored = default_scored(samples)
+    for order in (1, 2):
+        table = advice.table[advice.table["order"] == order]
+        assert table["rank"].notna().sum() >= 4, table
+        name, params = advice.best(order)
+        predicted = float(table[table["method"] == name]["predicted_rmse"].iloc[0])
+        estimate = methods.get(name, **params)(x, dt, (order,))
+        true = error_metrics(estimate[order], truth[order], scored)["rmse"]
+        assert 0 < predicted and true <= 3 * predicted, (order, name, true, predicted)

@@ -3,6 +3,7 @@
 import dataclasses
 import math
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -499,3 +500,21 @@ def test_the_tuner_skipping_the_ends_check_tunes_as_the_full_calls_do(name, monk
         full.loss,
         full.evaluations,
     )
+
+
+def test_a_window_the_order_tuned_does_not_read_is_fitted_to_a_short_record():
+    """Jacobi's ẍ window does not change ẋ, so tuning ẋ leaves it at its default (0.2 s); on
+    16 samples at 10 ms (0.15 s) that default is longer than the record, and every candidate
+    failed on it. It is brought within the record's window range instead (here 0.04-0.05 s)
+    and the tuning finds a setting, of finite loss, whose ẍ window is that."""
+    t = np.arange(16) * 0.01
+    realisation = SimpleNamespace(
+        x=np.sin(3 * t) + 0.01 * np.random.default_rng(1).standard_normal(t.size),
+        dt_s=0.01,
+        interior=np.ones(t.size, dtype=bool),
+        truth={1: 3 * np.cos(3 * t)},
+    )
+    result = tuning.tune("jacobi", realisation, 1, max_evaluations=40, region="interior-estimated")
+    assert math.isfinite(result.loss)
+    assert 0.04 <= result.params["accel_window_s"] <= 0.05
+    assert methods.get("jacobi", **result.params)(realisation.x, 0.01, (1,)).estimated(1).all()
