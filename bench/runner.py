@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from diffbench import methods
-from diffbench.bench.core import tuning, uptodate
+from diffbench.bench.core import search_space, tuning, uptodate
 from diffbench.bench.core.errors import BadInput, DiffbenchNote, DiffbenchWarning
 from diffbench.bench.core.executor import CallTimeout, call_timeout, completed_map, ordered_map
 from diffbench.bench.core.plan import (
@@ -357,7 +357,7 @@ def _tuned(job: TuningJob, realisations) -> dict[str, Any] | None:
             max_evaluations=job.budget,
             region=job.region,
         )
-    except tuning.NoRoomToTune as error:  # the method cannot cover the task at all
+    except search_space.NoRoomToTune as error:  # the method cannot cover the task at all
         return {
             "params": {},
             "loss": float("inf"),

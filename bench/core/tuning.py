@@ -40,6 +40,7 @@ from scipy import integrate, optimize
 from diffbench import methods
 from diffbench.bench.core.roles import CRITERION_NAMES
 from diffbench.bench.core.scores import estimate_on, is_uniform
+from diffbench.bench.core.search_space import fitted_to_record, search_space, snap
 from diffbench.bench.core.spectrum import periodogram, record_spectrum
 from diffbench.bench.core.surrogates import surrogate_records
 
@@ -58,104 +59,7 @@ SURROGATE_RECORDS = 2
 loss: one draw can favour a setting by luck)."""
 
 
-class NoRoomToTune(ValueError):
-    """A method's tuning range leaves nothing to search at this step and record length."""
-
-
-@dataclass(frozen=True)
-class Dimension:
-    """One searched parameter: its coordinate in the optimiser and back."""
-
-    name: str
-    kind: str  # "float", "int" or "choice"
-    low: float
-    high: float
-    log: bool = False
-    choices: tuple = ()
-
-    def bounds(self) -> tuple[float, float]:
-        if self.kind == "choice":
-            return (0.0, len(self.choices) - 1.0)
-        if self.log:
-            return (math.log(self.low), math.log(self.high))
-        return (self.low, self.high)
-
-    def value(self, coordinate: float) -> Any:
-        if self.kind == "choice":
-            return self.choices[round(coordinate)]
-        number = math.exp(coordinate) if self.log else coordinate
-        number = min(max(number, self.low), self.high)
-        return round(number) if self.kind == "int" else float(number)
-
-
 REGIONS = ("interior", "whole", "interior-estimated")
-SMALL_INTEGER_RANGE = 4
-"""Integer parameters with at most this many values are searched like choices, one by one."""
-
-
-def search_space(name: str, dt: float, n_samples: int, region: str = "interior") -> list[Dimension]:
-    """The dimensions searched for method ``name`` at step ``dt`` on ``n_samples`` samples, by
-    a loss taken on ``region`` (parameters declared ``ends_only`` only where it may read
-    estimates the method does not trust: ``whole``, ``interior-estimated``)."""
-    cls = methods.method_class(name)
-    dimensions = []
-    for spec in methods.params_of(cls):
-        if spec.ends_only and region == "interior":
-            continue
-        if spec.choices is not None:
-            if len(spec.choices) > 1 and not spec.untuned:
-                dimensions.append(Dimension(spec.name, "choice", 0, 0, choices=spec.choices))
-            continue
-        if spec.tune_low is None:
-            continue
-        low, high = float(spec.tune_low), float(spec.tune_high)
-        if spec.kind == "frequency":
-            high = min(high, 0.45 / dt)
-        if spec.kind == "window":
-            low, high = window_bounds(low, high, dt, n_samples)
-        if low >= high:
-            raise NoRoomToTune(
-                f"`{spec.name}` has no room to tune at dt={dt!r} s on {n_samples} samples "
-                f"(range {spec.tune_low}..{spec.tune_high})"
-            )
-        if spec.integer and high - low < SMALL_INTEGER_RANGE:  # searched value by value
-            values = tuple(range(math.ceil(low), math.floor(high) + 1))
-            dimensions.append(Dimension(spec.name, "choice", 0, 0, choices=values))
-            continue
-        kind = "int" if spec.integer else "float"
-        dimensions.append(Dimension(spec.name, kind, low, high, log=spec.log))
-    return dimensions
-
-
-def window_bounds(low: float, high: float, dt: float, n_samples: int) -> tuple[float, float]:
-    """A window parameter's range ``low``..``high`` (s) on ``n_samples`` at step ``dt``: at
-    least 4 steps, at most a third of the record."""
-    return max(low, 4 * dt), min(high, dt * (n_samples // 3))
-
-
-def fitted_to_record(params: dict[str, Any], names, dt: float, n_samples: int, specs) -> dict:
-    """``params`` with the window parameters among ``names`` (those a tuning leaves at their
-    defaults, e.g. the ẍ window when ẋ is tuned) brought within 4 steps .. a third of the
-    record (:func:`window_bounds`): a default window longer than a short record would fail
-    every candidate although it does not change the estimate tuned. Windows already within
-    are left as they are."""
-    fitted = dict(params)
-    low, high = window_bounds(0.0, math.inf, dt, n_samples)
-    for spec in specs:
-        if spec.name in names and spec.kind == "window" and low <= high:
-            fitted[spec.name] = min(max(fitted[spec.name], low), high)
-    return fitted
-
-
-def snap(params: dict[str, Any], dt: float, specs) -> dict[str, Any]:
-    """Windows (parameters declared ``kind="window"``) to whole even numbers of steps (odd
-    sample counts), at least 2 steps. ``specs``: the method's parameter specifications."""
-    windows = {spec.name for spec in specs if spec.kind == "window"}
-    snapped = dict(params)
-    for key, value in params.items():
-        if key in windows:
-            snapped[key] = 2 * max(1, round(value / (2 * dt))) * dt
-    return snapped
 
 
 @dataclass(frozen=True)

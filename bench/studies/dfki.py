@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from diffbench import methods
-from diffbench.bench.core import tuning
+from diffbench.bench.core import search_space
 from diffbench.bench.studies.identification import (
     Identification,
     decimation_factor,
@@ -339,14 +339,14 @@ def inner_loss(method: Method, spec: DfkiCrossValidation, held_out: int) -> floa
 
 def candidate_settings(method: Method, spec: DfkiCrossValidation) -> list[Method]:
     """``method`` itself, then ``spec.candidates`` settings drawn by a scrambled Sobol sequence
-    (seed 0) over its tuning ranges (:func:`diffbench.bench.core.tuning.search_space`: log scale
-    where declared, choices and small integer ranges value by value, windows snapped to the
-    step), the parameters not searched kept at ``method``'s values; settings the method
-    refuses are left out. The same list for every fold."""
+    (seed 0) over its tuning ranges (:func:`~diffbench.bench.core.search_space.search_space`:
+    log scale where declared, choices and small integer ranges value by value, windows
+    snapped to the step), the parameters not searched kept at ``method``'s values; settings
+    the method refuses are left out. The same list for every fold."""
     from scipy.stats import qmc
 
     record = dfki_record(spec.records[0])
-    dimensions = tuning.search_space(method.name, spec.nominal_dt_s, record.t.size)
+    dimensions = search_space.search_space(method.name, spec.nominal_dt_s, record.t.size)
     settings = [method]
     if not dimensions or spec.candidates < 1:
         return settings
@@ -366,7 +366,7 @@ def candidate_settings(method: Method, spec: DfkiCrossValidation) -> list[Method
             else:
                 low, high = dimension.bounds()
                 params[dimension.name] = dimension.value(low + u * (high - low))
-        params = tuning.snap(params, spec.nominal_dt_s, methods.params_of(cls))
+        params = search_space.snap(params, spec.nominal_dt_s, methods.params_of(cls))
         key = tuple(sorted(params.items()))
         if key in seen:
             continue

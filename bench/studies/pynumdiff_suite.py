@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from diffbench import methods
-from diffbench.bench.core import tuning
+from diffbench.bench.core import search_space, tuning
 from diffbench.bench.core.scores import estimate_on
 from diffbench.bench.report import tables
 from diffbench.signals import pynumdiff_suite as records
@@ -73,7 +73,7 @@ def oracle_setting(record: str, name: str, max_evaluations: int | None = None) -
         )
         if math.isfinite(result.loss):
             return {"params": result.params, "tuned_on": "whole", "loss": result.loss}
-    except tuning.NoRoomToTune:
+    except search_space.NoRoomToTune:
         pass
     n = realisation.x.shape[0]
     for margin in SHRINK_MARGINS:
@@ -82,7 +82,7 @@ def oracle_setting(record: str, name: str, max_evaluations: int | None = None) -
         shrunk = dataclasses.replace(realisation, interior=inside)
         try:
             result = tuning.tune(name, shrunk, ORDER, "oracle", max_evaluations=max_evaluations)
-        except tuning.NoRoomToTune:
+        except search_space.NoRoomToTune:
             continue
         if math.isfinite(result.loss):
             return {

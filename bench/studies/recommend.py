@@ -17,10 +17,11 @@ estimates written for the record are computed on it that way and scaled back.
 The error is predicted over the *scored* samples (default all but the first and last 5 %),
 every one as the method estimates it, whether it marks it valid or not (on a record of 16
 samples the scored samples are all of them, and every method marks some end samples); the
-derivatives file written for a record flags the samples the method marks valid. A method's
+derivatives file written for a record flags the samples the prediction is for. A method's
 marks may keep its last samples while they are many times worse than its middle (a spectral
 method's, on a record whose ends do not meet: 10 to 20 times), and the surrogates, whose
-ends are not the record's, do not predict them: they are written, but flagged.
+ends are not the record's, do not predict them: they are written, but flagged 0 when outside
+the scored samples.
 """
 
 from __future__ import annotations
@@ -247,11 +248,12 @@ def recommend_record(record, names=None, orders=(1, 2), seed=0, max_evaluations=
 def write_recommendation(record, results, out: Path) -> list[Path]:
     """``ranking.md``/``.csv`` (every method per channel and order, best first),
     ``derivatives.csv`` (the record's time, and per channel its samples and the best method's
-    smoothed signal, ẋ and ẍ, empty where the method masks them, each with its ``_valid``
-    column: 1 on the samples the predicted RMSE is for, those the method marks valid among the
-    scored ones; 0 elsewhere, the ends it estimates included) and ``recommend.png`` (per channel:
-    the samples and the smoothed signal, ẋ, and the periodogram with the noise floor and band)
-    in ``out``. What reading the record warned about (``record.notes``) heads ``ranking.md``.
+    smoothed signal, ẋ and ẍ, empty where the method estimates nothing, each with its
+    ``_valid`` column: 1 on the samples the predicted RMSE is for, the scored ones it estimates
+    (marked valid by the method or not); 0 elsewhere, the ends it estimates included) and
+    ``recommend.png`` (per channel: the samples and the smoothed signal, ẋ, and the
+    periodogram with the noise floor and band) in ``out``. What reading the record warned
+    about (``record.notes``) heads ``ranking.md``.
     """
 
     out.mkdir(parents=True, exist_ok=True)
@@ -294,8 +296,9 @@ def write_recommendation(record, results, out: Path) -> list[Path]:
     note = (
         "Each method tuned on surrogate records with the record's spectrum and a known truth "
         f"({TUNING_SURROGATES}), scored on {SCORING_SURROGATES} others: the predicted RMSE "
-        "is their mean ± standard deviation, on all but the first and last 5 % of the record: "
-        "the samples flagged 1 in derivatives.csv's `_valid` columns. The others (the ends a "
+        "is their mean ± standard deviation, on all but the first and last 5 % of the record, "
+        "every one as the method estimates it: the samples flagged 1 in derivatives.csv's "
+        "`_valid` columns. The others (the ends a "
         "method estimates, often many times worse than its middle) are written but flagged 0: "
         "no error is predicted for them."
     )
@@ -309,10 +312,11 @@ def write_recommendation(record, results, out: Path) -> list[Path]:
         columns[channel] = record.x[:, index]
         first = estimates[min(estimates)]
         columns[f"{channel}_smoothed"] = first[0]
-        columns[f"{channel}_smoothed_valid"] = (first.valid[0] & scored).astype(np.int8)
+        columns[f"{channel}_smoothed_valid"] = (first.estimated(0) & scored).astype(np.int8)
         for order, estimate in estimates.items():
             columns[f"{channel}_d{order}"] = estimate[order]
-            columns[f"{channel}_d{order}_valid"] = (estimate.valid[order] & scored).astype(np.int8)
+            predicted = estimate.estimated(order) & scored
+            columns[f"{channel}_d{order}_valid"] = predicted.astype(np.int8)
     pd.DataFrame(columns).to_csv(out / "derivatives.csv", index=False)  # exact round trip
     _figure(record, results, time, out / "recommend.png")
     return [out / "ranking.md", out / "ranking.csv", out / "derivatives.csv", out / "recommend.png"]

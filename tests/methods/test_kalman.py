@@ -43,6 +43,18 @@ def steady_path(request, monkeypatch):
     return request.param
 
 
+def _fast_and_filterpy(model_order, n, bandwidth_hz, dt):
+    """The smoothed states of a noisy sine plus parabola by rts_smooth and by filterpy."""
+    rng = np.random.default_rng(n + model_order)
+    t = np.arange(n) * dt
+    z = np.sin(2 * np.pi * 3 * t) + 0.5 * t**2 + 0.1 * rng.standard_normal(n)
+    model = polynomial_model(model_order, dt, bandwidth_hz)
+    mean0, covariance0 = initial_state(z[:, None], model.per_step_coefficient)
+    fast = rts_smooth(z[:, None], model, mean0, covariance0)[:, :, 0]
+    reference = _filterpy(z, model, mean0[:, 0], covariance0)
+    return fast, reference
+
+
 @pytest.mark.parametrize(
     ("model_order", "n", "bandwidth_hz", "dt"),
     [
@@ -59,13 +71,7 @@ def steady_path(request, monkeypatch):
     ],
 )
 def test_fast_smoother_equals_filterpy(model_order, n, bandwidth_hz, dt, steady_path):
-    rng = np.random.default_rng(n + model_order)
-    t = np.arange(n) * dt
-    z = np.sin(2 * np.pi * 3 * t) + 0.5 * t**2 + 0.1 * rng.standard_normal(n)
-    model = polynomial_model(model_order, dt, bandwidth_hz)
-    mean0, covariance0 = initial_state(z[:, None], model.per_step_coefficient)
-    fast = rts_smooth(z[:, None], model, mean0, covariance0)[:, :, 0]
-    reference = _filterpy(z, model, mean0[:, 0], covariance0)
+    fast, reference = _fast_and_filterpy(model_order, n, bandwidth_hz, dt)
     scale = np.max(np.abs(reference), axis=0)
     # the vague prior (PRIOR_SCALE) leaves the first steps ill-conditioned: both computations
     # round differently there (measured 4e-9 of the jerk state's size at 5 Hz, 3000 samples)
@@ -82,13 +88,7 @@ def test_fast_smoother_equals_filterpy_at_the_higher_orders(model_order, n, band
     prior's covariance is: the two computations start from it rounded differently, and the
     first estimates can differ by up to eps cond(VᵀV) times the state's size (seen: at most
     3e-6 of it, under SkylakeX, Haswell and Sandybridge)."""
-    rng = np.random.default_rng(n + model_order)
-    t = np.arange(n) * dt
-    z = np.sin(2 * np.pi * 3 * t) + 0.5 * t**2 + 0.1 * rng.standard_normal(n)
-    model = polynomial_model(model_order, dt, bandwidth_hz)
-    mean0, covariance0 = initial_state(z[:, None], model.per_step_coefficient)
-    fast = rts_smooth(z[:, None], model, mean0, covariance0)[:, :, 0]
-    reference = _filterpy(z, model, mean0[:, 0], covariance0)
+    fast, reference = _fast_and_filterpy(model_order, n, bandwidth_hz, dt)
     states = model_order + 1
     steps = np.arange(1, 4 * states + 1, dtype=float)
     vandermonde = steps[:, None] ** np.arange(states)[None, :]
