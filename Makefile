@@ -62,20 +62,15 @@ studies: $(STAMP)
 	  --tuning-seeds 10 --budget 400 --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal --orders 1,2 --seeds $(SEEDS) \
 	  --tuning-seeds 10 --budget 400 --region whole --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench run paper-signal-4937ms --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench tune native,$(SPECTRAL_PEERS) paper-signal-4937ms --criteria oracle \
-	  --orders 1,2 --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal-4937ms --orders 1,2 \
-	  --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal-4937ms --orders 1,2 \
-	  --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --region whole --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench run paper-signal-999ms --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench tune native,$(SPECTRAL_PEERS) paper-signal-999ms --criteria oracle \
-	  --orders 1,2 --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal-999ms --orders 1,2 \
-	  --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal-999ms --orders 1,2 \
-	  --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --region whole --jobs 2 --out $(STUDIES)
+	for record in paper-signal-4937ms paper-signal-999ms; do \
+	  $(BIN)/diffbench run $$record --seeds $(SEEDS) --jobs 2 --out $(STUDIES) && \
+	  $(BIN)/diffbench tune native,$(SPECTRAL_PEERS) $$record --criteria oracle \
+	    --orders 1,2 --seeds $(SEEDS) --jobs 2 --out $(STUDIES) && \
+	  $(BIN)/diffbench tune native,$(GRID_PEERS) $$record --orders 1,2 \
+	    --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --jobs 2 --out $(STUDIES) && \
+	  $(BIN)/diffbench tune native,$(GRID_PEERS) $$record --orders 1,2 --seeds $(SEEDS) \
+	    --tuning-seeds 10 --budget 400 --region whole --jobs 2 --out $(STUDIES) || exit 1; \
+	done
 	$(BIN)/diffbench run paper-figures --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench run robot-sim --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench run identify-dfki --methods native,$(GRID_PEERS) --jobs 2 --out $(STUDIES)

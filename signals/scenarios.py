@@ -286,36 +286,38 @@ register_scenario(
         preset="paper-signal",
     )
 )
-register_scenario(
-    Scenario(
-        name="paper-signal-4937ms",
+
+
+def _paper_record(name: str, duration_s: float, description: str) -> Scenario:
+    """The paper's signal and noise, step and presets, over ``duration_s``."""
+    return Scenario(
+        name=name,
         signal=PaperSines(frequencies_hz=(4.0, 9.0, 15.0), amplitude=1.0),
         noise=NoiseStack(_PAPER_NOISE),
         dt_s=1e-3,
-        duration_s=4.937,
+        duration_s=duration_s,
         interior_margin_s=0.15,
-        description=(
-            "paper-signal over 4.937 s, not a whole number of periods of 4, 9 and 15 Hz: a "
-            "record whose ends do not meet, as a measured one (spectral methods cannot lean on "
-            "periodicity)."
-        ),
+        description=description,
         preset="paper-signal",
+    )
+
+
+register_scenario(
+    _paper_record(
+        "paper-signal-4937ms",
+        4.937,
+        "paper-signal over 4.937 s, not a whole number of periods of 4, 9 and 15 Hz: a "
+        "record whose ends do not meet, as a measured one (spectral methods cannot lean on "
+        "periodicity).",
     )
 )
 register_scenario(
-    Scenario(
-        name="paper-signal-999ms",
-        signal=PaperSines(frequencies_hz=(4.0, 9.0, 15.0), amplitude=1.0),
-        noise=NoiseStack(_PAPER_NOISE),
-        dt_s=1e-3,
-        duration_s=0.999,
-        interior_margin_s=0.15,
-        description=(
-            "paper-signal with 1000 samples (0 to 0.999 s) instead of 1001: its last sample is "
-            "not the zero every component has at 1 s, so its ends do not meet and an odd "
-            "extension is no longer exact there."
-        ),
-        preset="paper-signal",
+    _paper_record(
+        "paper-signal-999ms",
+        0.999,
+        "paper-signal with 1000 samples (0 to 0.999 s) instead of 1001: its last sample is "
+        "not the zero every component has at 1 s, so its ends do not meet and an odd "
+        "extension is no longer exact there.",
     )
 )
 register_scenario(
