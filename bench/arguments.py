@@ -165,8 +165,10 @@ def criteria(value: str | Iterable[str]) -> list[str]:
     found = name_list(value)
     unknown = [c for c in found if c not in tuning.COMMAND_CRITERIA]
     if unknown:
+        close = methods.did_you_mean(unknown[0], tuning.COMMAND_CRITERIA)
         raise ValueError(
             f"must be among {', '.join(tuning.COMMAND_CRITERIA)}, got {', '.join(unknown)}"
+            + (f"; {close}" if close else "")
         )
     return found
 
@@ -176,7 +178,11 @@ def one_of(*choices: str) -> Callable[[Any], str]:
 
     def convert(value: Any) -> str:
         if value not in choices:
-            raise ValueError(f"must be one of {', '.join(choices)}, got {value!r}")
+            close = methods.did_you_mean(value, choices)
+            raise ValueError(
+                f"must be one of {', '.join(choices)}, got {value!r}"
+                + (f"; {close}" if close else "")
+            )
         return value
 
     return convert

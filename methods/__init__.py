@@ -65,10 +65,12 @@ from diffbench.methods._validation import (
     check_dt,
     check_signal,
     check_times,
+    did_you_mean,
     is_uniform,
     mean_step,
     samples_in_span,
     uniform_step,
+    unknown_choice_hint,
 )
 
 __all__ = [
@@ -92,6 +94,7 @@ __all__ = [
     "check_dt",
     "check_signal",
     "check_times",
+    "did_you_mean",
     "finite_difference",
     "gaussian_kernel",
     "gaussian_process",
@@ -122,4 +125,5 @@ __all__ = [
     "total_variation",
     "uniform_grid",
     "uniform_step",
+    "unknown_choice_hint",
 ]

@@ -32,9 +32,11 @@ from diffbench.methods._validation import (
     check_orders,
     check_signal,
     check_times,
+    did_you_mean,
     finite_samples,
     is_uniform,
     mean_step,
+    unknown_choice_hint,
 )
 
 _REGISTRY: dict[str, type[Method]] = {}
@@ -109,7 +111,11 @@ class Param:
             allowed = f"one of {self.describe_range()}"
             if all(isinstance(choice, str) for choice in self.choices):
                 if value not in self.choices:
-                    raise ValueError(f"`{self.name}` must be {allowed}, got {value!r}")
+                    close = did_you_mean(value, self.choices)
+                    raise ValueError(
+                        f"`{self.name}` must be {allowed}, got {value!r}"
+                        + (f"; {close}" if close else "")
+                    )
                 return value
         if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
             raise ValueError(f"`{self.name}` must be {allowed}, got {value!r}")
@@ -608,11 +614,8 @@ def method_class(name: str) -> type[Method]:
     try:
         return _REGISTRY[name]
     except KeyError:
-        hint = missing_hint(name)
-        raise ValueError(
-            f"unknown method {name!r}; "
-            + (hint if hint else f"available: {', '.join(sorted(_REGISTRY))}")
-        ) from None
+        hint = missing_hint(name) or unknown_choice_hint(name, sorted(_REGISTRY))
+        raise ValueError(f"unknown method {name!r}; {hint}") from None
 
 
 def get(name: str, **params: Any) -> Method:
@@ -621,9 +624,11 @@ def get(name: str, **params: Any) -> Method:
     valid = [spec.name for spec in params_of(cls)]
     unknown = sorted(set(params) - set(valid))
     if unknown:
+        close = [hint for u in unknown if (hint := did_you_mean(u, valid))]
         raise ValueError(
             f"unknown parameter(s) {', '.join(unknown)} for method {name!r}; "
-            f"valid: {', '.join(valid) or '(none)'}"
+            + "".join(f"{hint} " for hint in close)
+            + f"valid: {', '.join(valid) or '(none)'}"
         )
     return cls(**params)
 
@@ -645,8 +650,8 @@ def preset_spec(name: str, key: str) -> Preset:
     try:
         return cls.presets[key]
     except KeyError:
-        known = ", ".join([*sorted(cls.presets), DEFAULT_PRESET])
-        raise ValueError(f"method {name!r} has no preset {key!r}; available: {known}") from None
+        hint = unknown_choice_hint(key, [*sorted(cls.presets), DEFAULT_PRESET])
+        raise ValueError(f"method {name!r} has no preset {key!r}; {hint}") from None
 
 
 def preset(name: str, key: str) -> Method:

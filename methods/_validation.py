@@ -3,6 +3,7 @@ the argument and say what is allowed."""
 
 from __future__ import annotations
 
+import difflib
 import math
 import numbers
 from collections.abc import Iterable
@@ -15,6 +16,45 @@ MAX_WINDOW_STEPS = 100_000
 """Longest window any method accepts, in sampling steps (100 s at dt = 1 ms). Taps cost time
 and memory in proportion to the window (measured at this length, q = 40: 0.4 s for the Jacobi
 trapezoid rule, a few seconds for its linear rule); 1e300 s used to overflow."""
+
+
+CLOSE_MATCH_RATIO = 0.6
+"""Least similarity (:class:`difflib.SequenceMatcher` ratio, case ignored) of a known name
+to a mistyped one for :func:`did_you_mean` to offer it (difflib's default)."""
+
+
+def did_you_mean(name: object, choices: Iterable[str], limit: int = 3) -> str:
+    """``"did you mean 'jacobi'?"`` (or ``'a', 'b' or 'c'``): the ``choices`` closest to
+    ``name`` (at most ``limit``, best first; similarity at least :data:`CLOSE_MATCH_RATIO`,
+    case ignored; a choice that differs only in case, alone); ``""`` when none is close.
+
+    Examples
+    --------
+    >>> did_you_mean("jacobbi", ["jacobi", "kalman", "causal_jacobi"])
+    "did you mean 'jacobi' or 'causal_jacobi'?"
+    >>> did_you_mean("Kalman", ["kalman", "kalman_filter"])
+    "did you mean 'kalman'?"
+    """
+    if not isinstance(name, str):
+        return ""
+    by_folded: dict[str, str] = {}
+    for choice in choices:
+        by_folded.setdefault(choice.casefold(), choice)
+    if name.casefold() in by_folded:  # only the case differs: that one
+        return f"did you mean {by_folded[name.casefold()]!r}?"
+    close = difflib.get_close_matches(name.casefold(), by_folded, limit, CLOSE_MATCH_RATIO)
+    if not close:
+        return ""
+    names = [repr(by_folded[c]) for c in close]
+    listed = names[0] if len(names) == 1 else f"{', '.join(names[:-1])} or {names[-1]}"
+    return f"did you mean {listed}?"
+
+
+def unknown_choice_hint(name: object, choices: Iterable[str]) -> str:
+    """What to say after "unknown ... {name!r}; ": :func:`did_you_mean` when a choice is close
+    (the full list of a large registry would bury it), else ``"available: a, b, ..."``."""
+    choices = list(choices)
+    return did_you_mean(name, choices) or f"available: {', '.join(choices)}"
 
 
 class DeferredValueError(ValueError):

@@ -115,3 +115,13 @@ def read_only(array: np.ndarray) -> np.ndarray:
     out = np.array(array, dtype=np.float64, copy=True)
     out.setflags(write=False)
     return out
+
+
+def unknown_choice_hint(name: object, choices: Iterable[str]) -> str:
+    """What to say after "unknown ... {name!r}; ": the close names ("did you mean ...?") or
+    every one. The one definition is the methods package's
+    (:func:`diffbench.methods.unknown_choice_hint`), imported when a name is unknown: loading
+    the signals does not load the methods."""
+    from diffbench.methods._validation import unknown_choice_hint as hint
+
+    return hint(name, choices)

@@ -24,7 +24,13 @@ from typing import Any, ClassVar, TypeVar
 import numpy as np
 from numpy.polynomial import polynomial as npoly
 
-from diffbench.signals._checks import check_real, check_real_tuple, check_times, read_only
+from diffbench.signals._checks import (
+    check_real,
+    check_real_tuple,
+    check_times,
+    read_only,
+    unknown_choice_hint,
+)
 
 MAX_ORDER = 2
 """Highest derivative order every signal provides exactly."""
@@ -171,9 +177,8 @@ def signal_class(name: str) -> type[Signal]:
     try:
         return _REGISTRY[name]
     except (KeyError, TypeError):
-        raise ValueError(
-            f"unknown signal {name!r}; available: {', '.join(available_signals())}"
-        ) from None
+        hint = unknown_choice_hint(name, available_signals())
+        raise ValueError(f"unknown signal {name!r}; {hint}") from None
 
 
 def get_signal(name: str, **params: Any) -> Signal:

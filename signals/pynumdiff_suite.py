@@ -33,7 +33,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from diffbench.signals._checks import check_real
+from diffbench.signals._checks import check_real, unknown_choice_hint
 from diffbench.signals.clean import Polynomial, Signal
 from diffbench.signals.noise import Gaussian, NoiseStack
 from diffbench.signals.scenarios import Scenario
@@ -226,6 +226,5 @@ def get(name: str) -> Scenario:
     try:
         return SCENARIOS[name]
     except (KeyError, TypeError):
-        raise ValueError(
-            f"unknown PyNumDiff test record {name!r}; available: {', '.join(SCENARIOS)}"
-        ) from None
+        hint = unknown_choice_hint(name, SCENARIOS)
+        raise ValueError(f"unknown PyNumDiff test record {name!r}; {hint}") from None

@@ -46,6 +46,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from diffbench.signals._checks import unknown_choice_hint
+
 PARAMETER_NAMES = ("ZZ1R", "ZZ2", "MX2", "MY2", "FV1", "FC1", "FV2", "FC2")
 #: The paper's table II (Jacobi column), used as the true parameters of the simulation.
 PAPER_PARAMETERS = np.array([3.496, 0.059, 0.124, 0.0019, 0.248, 0.431, 0.0144, 0.1268])
@@ -459,9 +461,8 @@ def get_robot_scenario(name: str) -> RobotScenario:
     try:
         return _ROBOT_SCENARIOS[name]
     except KeyError:
-        raise ValueError(
-            f"unknown robot scenario {name!r}; available: {', '.join(available_robot_scenarios())}"
-        ) from None
+        hint = unknown_choice_hint(name, available_robot_scenarios())
+        raise ValueError(f"unknown robot scenario {name!r}; {hint}") from None
 
 
 register_robot_scenario(

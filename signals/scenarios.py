@@ -18,7 +18,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from diffbench.signals._checks import check_real, check_seed, check_times, read_only
+from diffbench.signals._checks import (
+    check_real,
+    check_seed,
+    check_times,
+    read_only,
+    unknown_choice_hint,
+)
 from diffbench.signals.clean import Chirp, DampedOscillation, PaperSines, Polynomial, Signal, Truth
 from diffbench.signals.noise import Gaussian, NoiseStack, Poisson, Quantisation, Sinusoid
 from diffbench.signals.stochastic import BandLimited, IntegratedWhiteNoise, Matern
@@ -258,9 +264,8 @@ def get_scenario(name: str) -> Scenario:
     try:
         return _REGISTRY[name]
     except (KeyError, TypeError):
-        raise ValueError(
-            f"unknown scenario {name!r}; available: {', '.join(available_scenarios())}"
-        ) from None
+        hint = unknown_choice_hint(name, available_scenarios())
+        raise ValueError(f"unknown scenario {name!r}; {hint}") from None
 
 
 _PAPER_NOISE = (

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from diffbench.methods import check_dt, check_signal, is_uniform, mean_step
+from diffbench.methods import check_dt, check_signal, did_you_mean, is_uniform, mean_step
 
 MIN_SAMPLES = 16
 """Fewest samples a record may have: below, no method here estimates a derivative with an
@@ -97,7 +97,7 @@ def read_record(
     available = _column_names(path, kind)
     if time_column is not None and time_column not in available:
         raise ValueError(
-            f"{path}: no time column {time_column!r}; the columns are {', '.join(available)}"
+            f"{path}: no time column {time_column!r}; " + _columns_hint(time_column, available)
         )
     if columns is None:
         columns = [name for name in available if name != time_column]
@@ -107,7 +107,7 @@ def read_record(
     missing = [name for name in columns if name not in available]
     if missing:
         raise ValueError(
-            f"{path}: no column {missing[0]!r}; the columns are {', '.join(available)}"
+            f"{path}: no column {missing[0]!r}; " + _columns_hint(missing[0], available)
         )
     if time_column is not None and time_column in columns:
         raise ValueError(
@@ -209,6 +209,12 @@ def _warned(record: UserRecord) -> UserRecord:
     for note in record.notes:
         warnings.warn(note, RecordWarning, stacklevel=3)
     return record
+
+
+def _columns_hint(name: str, available: list[str]) -> str:
+    """The close column names (:func:`~diffbench.methods.did_you_mean`), then every one."""
+    close = did_you_mean(name, available)
+    return (f"{close} " if close else "") + f"the columns are {', '.join(available)}"
 
 
 def _check_file(path: Path) -> None:

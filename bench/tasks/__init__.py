@@ -23,6 +23,7 @@ import functools
 import importlib
 import pkgutil
 
+from diffbench import methods
 from diffbench.bench.studies.dfki import check_model_matches, dfki_record
 from diffbench.bench.tasks.base import _TASKS, ScenarioTask, Task, register_task
 from diffbench.bench.tasks.items import (
@@ -86,11 +87,11 @@ def get_task(name: str) -> Task:
     try:
         return _TASKS[name]
     except (KeyError, TypeError):
-        raise ValueError(
-            f"unknown task {name!r}; available: "
-            f"{', '.join(available_tasks(listed_only=True))} and the grid's "
+        hint = methods.did_you_mean(name, available_tasks()) or (
+            f"available: {', '.join(available_tasks(listed_only=True))} and the grid's "
             "(diffbench list)"
-        ) from None
+        )
+        raise ValueError(f"unknown task {name!r}; {hint}") from None
 
 
 __all__ = [

@@ -45,8 +45,10 @@ def test_cells_expand_methods_times_seeds_with_presets_as_roles():
 
 
 def test_unknown_task_or_method_is_an_error():
-    with pytest.raises(ValueError, match=r"unknown task 'paper-sig'; available: .*paper-signal"):
+    with pytest.raises(ValueError, match=r"unknown task 'paper-sig'; did you mean 'paper-signal'"):
         get_task("paper-sig")
+    with pytest.raises(ValueError, match=r"unknown task 'zzz'; available: .*paper-signal"):
+        get_task("zzz")
     with pytest.raises(ValueError, match="unknown method 'jacobbi'"):
         get_task("paper-signal").lineup(["jacobbi"])
 

@@ -199,13 +199,13 @@ def test_default_preset_is_the_class_defaults():
     assert methods.preset_spec("savitzky_golay", "default").label == "class defaults"
 
 
-def test_misspelt_preset_is_an_error_listing_the_keys():
-    with pytest.raises(
-        ValueError,
-        match=r"no preset 'paper-sginal'; available: paper-signal, "
-        r"robot, default",
-    ):
+def test_misspelt_preset_is_an_error_naming_the_close_key_or_listing_the_keys():
+    close = r"no preset 'paper-sginal'; did you mean 'paper-signal'\?$"
+    with pytest.raises(ValueError, match=close):
         methods.preset("jacobi", "paper-sginal")
+    every = r"no preset 'lab'; available: paper-signal, robot, default$"
+    with pytest.raises(ValueError, match=every):
+        methods.preset("jacobi", "lab")
 
 
 def test_estimate_rejects_nan_on_valid_samples():
