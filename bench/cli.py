@@ -16,7 +16,7 @@ from typing import Any, NamedTuple
 
 from diffbench.bench import api
 from diffbench.bench.cli_options import OPTIONS
-from diffbench.bench.console import Parser
+from diffbench.bench.console import WARNINGS_LOG, Parser, route_third_party_warnings
 from diffbench.bench.console import run as run_process
 from diffbench.bench.core.store import set_command
 
@@ -139,6 +139,8 @@ def _dispatch(argv: list[str]) -> None:
     """Parse ``argv``, call the command's API function, print what it returns."""
     args = build_parser().parse_args(argv)
     set_command(argv)
+    if isinstance(getattr(args, "out", None), Path):  # other packages' warnings: a log there
+        route_third_party_warnings(args.out / WARNINGS_LOG)
     api.load_plugins(args.plugins)
     command = COMMANDS[args.command]
     given = {k: v for k, v in vars(args).items() if k not in CLI_ONLY}

@@ -15,8 +15,10 @@ import functools
 import os
 import signal
 import sys
+import time
 import warnings
 from collections.abc import Callable
+from pathlib import Path
 
 from diffbench.bench.core.errors import BadInput, DiffbenchWarning
 from diffbench.bench.core.executor import Terminated, WorkerDied, terminate_on_sigterm
@@ -61,23 +63,79 @@ def run(dispatch: Callable[[list[str]], None], argv: list[str] | None = None) ->
         with warnings.catch_warnings():  # restores the caller's warning display afterwards
             warnings.showwarning = functools.partial(one_line_warning, warnings.showwarning)
             warnings.simplefilter("always", DiffbenchWarning)  # each one, every time
-            return _run(dispatch, argv)
+            try:
+                return _run(dispatch, argv)
+            finally:
+                _third_party_note()
+                route_third_party_warnings(None)
     finally:
         # called in-process (a test, a script), the caller keeps its own SIGTERM handling
         signal.signal(signal.SIGTERM, previous)
         sys.stdout = stdout
 
 
+WARNINGS_LOG = "diffbench-warnings.log"
+"""The file in a run's output folder (``--out``) that other packages' warnings go to."""
+
+_third_party: dict = {"log": None, "start": 0}
+"""Where this process writes other packages' warnings (None: the terminal), and the log's size
+when this run began (a forked worker inherits both)."""
+
+
+def route_third_party_warnings(log: Path | None) -> None:
+    """Send the warnings of other packages (PyNumDiff's even-width kernel, scipy's filter
+    design...) to ``log``, one line each, instead of the terminal, where they would bury the
+    run's own output; local worker processes started afterwards by forking do the same
+    (Dask's workers show them in their own logs). ``None``: the terminal again."""
+    log = None if log is None else Path(log)
+    start = log.stat().st_size if log is not None and log.is_file() else 0
+    _third_party.update(log=log, start=start)
+
+
 def one_line_warning(fallback, message, category, filename, lineno, file=None, line=None):
     """diffbench's own warnings (about the user's record, a failed cell...) as one line on
-    stderr, ``diffbench: warning: ...`` (or the category's ``label``); other packages' by
-    ``fallback`` (the usual form)."""
+    stderr, ``diffbench: warning: ...`` (or the category's ``label``); other packages' into
+    the log set by :func:`route_third_party_warnings`, or by ``fallback`` (the usual form)."""
     if category.__module__.startswith("diffbench."):
         label = getattr(category, "label", "warning")
         text = f"diffbench: {label}: {message}" if label else str(message)
         print(text, file=sys.stderr if file is None else file)
+    elif _third_party["log"] is not None and _logged(message, category, filename, lineno):
+        return
     else:
         fallback(message, category, filename, lineno, file, line)
+
+
+def _logged(message, category, filename, lineno) -> bool:
+    """Append the warning to the log as one line (``time pid category: message (file:line)``);
+    False if the log cannot be written (the warning is then shown as usual)."""
+    log = _third_party["log"]
+    stamp = time.strftime("%Y-%m-%dT%H:%M:%S")
+    text = " ".join(str(message).split())
+    entry = f"{stamp} pid {os.getpid()} {category.__name__}: {text} ({filename}:{lineno})\n"
+    try:
+        log.parent.mkdir(parents=True, exist_ok=True)
+        with open(log, "a", encoding="utf-8") as handle:  # one write: whole lines from workers
+            handle.write(entry)
+    except OSError:
+        return False
+    return True
+
+
+def _third_party_note() -> None:
+    """One line at the end of a run whose log grew (here or in its workers): how many
+    warnings, where."""
+    log, start = _third_party["log"], _third_party["start"]
+    try:
+        if log is None or log.stat().st_size <= start:
+            return
+        with open(log, "rb") as handle:
+            handle.seek(start)
+            count = handle.read().count(b"\n")
+    except OSError:  # the log went away meanwhile: nothing to point to
+        return
+    plural = "s" if count != 1 else ""
+    print(f"diffbench: {count} warning{plural} from other packages in {log}", file=sys.stderr)
 
 
 class NamedOutput:
