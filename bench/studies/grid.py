@@ -229,6 +229,126 @@ def causal_price(rows: pd.DataFrame, order: int) -> pd.DataFrame:
     return pd.DataFrame(records)
 
 
+def regrets(rows: pd.DataFrame, order: int, region: str) -> pd.DataFrame:
+    r"""Per grid task with noise left and per method: its mean RMSE of the derivative of
+    ``order`` on ``region`` (its best setting among those tuned for ``order``, mean over the
+    scored seeds) over the least of any method's,
+
+    .. math:: \rho_{m,k} = \frac{\min_\theta \overline{\mathrm{RMSE}}_k(m, \theta)}
+        {\min_{m'} \min_\theta \overline{\mathrm{RMSE}}_k(m', \theta)} \ge 1
+
+    (1 for the task's winner): how much worse than the best a method is on task k.
+    ``region`` as in :func:`winners`."""
+    if region == "valid":
+        rows = tables.covering_whole(rows, order, keys=("method", "params"), region="valid")
+    tuned_for = (rows["tuned_order"] == order).fillna(False).astype(bool)
+    scored = rows[
+        tuned_for
+        & (rows["metric"] == "rmse")
+        & (rows["order"] == order)
+        & (rows["region"] == region)
+    ]
+    records = []
+    for kind, level, step, name in _grid_tasks():
+        if name is None:
+            continue
+        scenario = signals.get_scenario(name)
+        if len(vanishing_disturbances(scenario)) == len(scenario.noise.models):
+            continue  # no noise left at this step: nothing to choose between
+        mine = scored[scored["task"] == name]
+        if mine.empty:
+            continue
+        means = mine.groupby(["method", "params"])["value"].mean().groupby("method").min()
+        for method, mean in means.items():
+            record = {"noise": kind, "level": level, "step_ms": step * 1e3, "task": name}
+            records.append({**record, "method": method, "rmse": mean, "ratio": mean / means.min()})
+    return pd.DataFrame(records)
+
+
+def which_method(rows: pd.DataFrame) -> pd.DataFrame:
+    """Per noise kind of the grid, derivative order and region: the method whose worst
+    :func:`regrets` ratio over that kind's tasks (every level and step) is least, among the
+    methods scored on all of them, with its median ratio and its wins, and the runner-up by
+    the same rule: the one choice that is never far from the best on such records."""
+    records = []
+    for order in (1, 2):
+        for region, label in REGION_COLUMNS.items():
+            table = regrets(rows, order, region)
+            if table.empty:
+                continue
+            for kind, group in table.groupby("noise", sort=False):
+                tasks = group["task"].nunique()
+                per_method = group.groupby("method")["ratio"].agg(["max", "median", "count"])
+                per_method["wins"] = group[group["ratio"] == 1.0].groupby("method").size()
+                everywhere = per_method[per_method["count"] == tasks].fillna({"wins": 0})
+                ranked = everywhere.sort_values(["max", "median"])
+                if ranked.empty:
+                    continue
+                best = ranked.iloc[0]
+                second = ranked.iloc[1] if len(ranked) > 1 else None
+                irregular = bool(signals.get_scenario(group["task"].iloc[0]).sampling)
+                records.append(
+                    {
+                        "noise": kind,
+                        "irregular": irregular,
+                        "order": order,
+                        "region": label,
+                        "tasks": tasks,
+                        "methods": len(everywhere),
+                        "method": ranked.index[0],
+                        "worst_ratio": best["max"],
+                        "median_ratio": best["median"],
+                        "wins": int(best["wins"]),
+                        "runner_up": None if second is None else ranked.index[1],
+                        "runner_up_worst_ratio": None if second is None else second["max"],
+                    }
+                )
+    return pd.DataFrame(records)
+
+
+WHICH_METHOD_STEM = "which_method"
+"""The report of :func:`which_method` (the README's "which differentiator" table)."""
+
+
+def write_which_method(rows: pd.DataFrame, directory: Path) -> list[Path]:
+    """``which_method`` (Markdown + CSV): :func:`which_method`, one row per noise kind, one
+    column per derivative order and region."""
+    table = which_method(rows)
+    if table.empty:
+        return []
+    shown = []
+    for kind, group in table.groupby("noise", sort=False):
+        line = {"noise (levels × steps)": f"{kind} ({group['tasks'].iloc[0]})"}
+        for order in (1, 2):
+            for label in REGION_COLUMNS.values():
+                match = group[(group["order"] == order) & (group["region"] == label)]
+                column = f"{ORDER_SYMBOLS[order]}, {label}"
+                if match.empty:
+                    line[column] = "—"
+                    continue
+                row = match.iloc[0]
+                line[column] = (
+                    f"{_with_handling(row['method'], row['irregular'])} ≤ "
+                    f"{row['worst_ratio']:.2f}× (median {row['median_ratio']:.2f}×)"
+                )
+        shown.append(line)
+    return tables.write_report(
+        directory,
+        WHICH_METHOD_STEM,
+        table,
+        pd.DataFrame(shown),
+        "Which differentiator on such records: per noise kind of the grid, the method whose "
+        "RMSE is nearest the best method's on every level and step (each method oracle-tuned "
+        f"on seed {tuning.TUNING_SEED}, scored on the others)",
+        "Each cell: the method, then its RMSE over the best method's on that record, at worst "
+        "and at the median over the kind's records (1.00×: it is the best everywhere). Among "
+        "the methods scored on all of them; **whole**: the whole record, among the settings "
+        f"that mark at least {tables.WHOLE_COVERAGE['valid']:.0%} of it valid. The runner-up, "
+        "the wins and the number of methods compared are in the CSV; each record's winner in "
+        "`winners_velocity` and `winners_acceleration`; `(resampled)` as there.",
+    )
+
+
 def write_causal_price(rows: pd.DataFrame, directory: Path) -> list[Path]:
     """``causal_price`` (Markdown grid + CSV): per noise, level and step, the best causal
     method against the best offline one, for ẋ and ẍ (nothing when no causal method ran)."""
@@ -306,4 +426,4 @@ def write_winners(rows: pd.DataFrame, directory: Path) -> list[Path]:
             "the packages that computed them: " + packages_line(rows) + "."
         )
         written += tables.write_report(directory, stem, table, pd.DataFrame(shown), title, legend)
-    return written + write_causal_price(rows, directory)
+    return written + write_which_method(rows, directory) + write_causal_price(rows, directory)

@@ -139,7 +139,15 @@ def test_aliased_disturbance_is_labelled_not_ranked(tmp_path):
     text = (tmp_path / "winners_acceleration.md").read_text()
     assert "no noise (200 Hz aliases to 0 Hz)" in text
     assert re.search(r"\| a\* \([\d.]+; next b [\d.]+\) † +\|", text)  # ranked, marked
-    assert len(written) == 2  # no rows tuned for ẋ: no velocity table
+    # no rows tuned for ẋ: no velocity table; which_method: the combined task alone
+    assert [path.name for path in written] == [
+        "winners_acceleration.md",
+        "winners_acceleration.csv",
+        "which_method.md",
+        "which_method.csv",
+    ]
+    choice = pd.read_csv(tmp_path / "which_method.csv")
+    assert choice[["noise", "tasks", "method"]].values.tolist() == [["combined", 1, "a"]]
 
 
 def test_irregular_sampling_rows_are_ranked_where_run_and_dashed_elsewhere(tmp_path):
@@ -159,3 +167,37 @@ def test_irregular_sampling_rows_are_ranked_where_run_and_dashed_elsewhere(tmp_p
     line = next(li for li in text.splitlines() if "jitter ±30% of the step" in li)
     cells = [c.strip() for c in line.strip("|").split("|")]
     assert cells[2] == "—" and cells[4].startswith("a*")  # 0.1 ms: not run; 1 ms: ranked
+
+
+def test_which_method_picks_the_least_worst_ratio_to_the_best_over_a_noise_kind(tmp_path):
+    """Three Gaussian-noise tasks, three methods (mean RMSE B + shift, B the mean of the
+    shared seeds' values): 'a' wins two tasks but is 3 worse on the third; 'b' wins one and is
+    at most 1 worse anywhere; 'c' is 8 worse on one. The choice is 'b', at worst (B+1)/B."""
+    names = ["grid-gaussian-0.02-1ms", "grid-gaussian-0.2-1ms", "grid-gaussian-0.5-1ms"]
+    shifts = {
+        names[0]: (("a", 0.0), ("b", 1.0), ("c", 2.0)),
+        names[1]: (("a", 3.0), ("b", 0.0), ("c", 0.5)),
+        names[2]: (("a", 0.0), ("b", 0.5), ("c", 8.0)),
+    }
+    rows = pd.concat([_rows(name, shifts[name]) for name in names], ignore_index=True)
+    base = rows[(rows["task"] == names[0]) & (rows["method"] == "a")]["value"].mean()
+    regrets = grid.regrets(rows, 2, "interior").set_index(["task", "method"])["ratio"]
+    assert regrets[names[1], "a"] == pytest.approx((base + 3.0) / base, rel=1e-12)
+    assert regrets[names[0], "a"] == 1.0 and regrets[names[1], "b"] == 1.0
+    choice = grid.which_method(rows).iloc[0]
+    assert (choice["noise"], choice["tasks"], choice["methods"]) == ("gaussian", 3, 3)
+    assert choice["method"] == "b" and choice["wins"] == 1
+    assert choice["worst_ratio"] == pytest.approx((base + 1.0) / base, rel=1e-12)
+    assert choice["median_ratio"] == pytest.approx((base + 0.5) / base, rel=1e-12)
+    assert choice["runner_up"] == "a"
+    assert choice["runner_up_worst_ratio"] == pytest.approx((base + 3.0) / base, rel=1e-12)
+    # a method missing on one task of the kind is not a choice there
+    partial = rows[~((rows["method"] == "b") & (rows["task"] == names[2]))]
+    assert grid.which_method(partial).iloc[0]["method"] == "a"
+    grid.write_which_method(rows, tmp_path)
+    text = (tmp_path / "which_method.md").read_text()
+    line = next(li for li in text.splitlines() if li.startswith("| gaussian (3)"))
+    cells = [c.strip() for c in line.strip("|").split("|")]
+    worst, median = (base + 1.0) / base, (base + 0.5) / base
+    assert cells[3] == f"b ≤ {worst:.2f}× (median {median:.2f}×)"  # ẍ, interior
+    assert cells[1] == cells[2] == cells[4] == "—"  # ẋ, and the whole record: not run
