@@ -6,13 +6,13 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.diffbench-installed
 SEEDS ?= 20
 
-.PHONY: bench bench-suite studies timing test test-kernels lint check-install clean-venv
+.PHONY: bench bench-suite studies timing test test-kernels docs lint check-install clean-venv
 
 $(STAMP): pyproject.toml constraints.txt
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 10) else "diffbench needs Python >= 3.10; set PYTHON=python3.x")'
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,peers,data,dask]'
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,peers,data,dask,docs]'
 	touch $(STAMP)
 
 # `make bench`, the paper suite: the paper signal (every native method and the fast peers at
@@ -89,6 +89,12 @@ studies: $(STAMP)
 
 timing: $(STAMP)
 	$(BIN)/diffbench timing --out results
+
+# the documentation site (mkdocs.yml), into build/site/; strict: any warning (a broken link, a
+# missing included file) fails it. Its methods reference and results pages are generated
+# (bench/report/docs_site.py), so it needs the installed package.
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
 
 # one formatting for the whole tree: ruff's, with no line exempted from it
 lint: $(STAMP)

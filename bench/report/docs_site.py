@@ -1,0 +1,148 @@
+"""The documentation site's generated pages, and the MkDocs hook that adds them
+(``mkdocs.yml``: ``hooks: [bench/report/docs_site.py]``; ``make docs`` builds the site).
+
+Nothing in these pages is typed by hand:
+
+- ``reference/methods.md``: every registered method from the registry itself (its summary,
+  whether it is causal, how it takes time stamps, each parameter's default, admissible range,
+  tuning range and meaning, each preset with its values and source, its reference);
+- ``results/<folder>/index.md``: one page per folder of committed results (``make bench``'s
+  and ``make studies``'s), holding each of its Markdown tables and its figures as written.
+
+The hand-written pages (``docs/*.md``) describe; where they quote a table they include the
+generated file (``--8<--``, pymdown's snippets), so that a regeneration updates them too.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from diffbench import methods
+
+ROOT = Path(__file__).resolve().parents[2]
+"""The repository (the folder holding ``mkdocs.yml`` and ``results/``)."""
+
+RESULTS = ROOT / "results"
+
+_ROLE = re.compile(r":(?:\w+:)+`~?([^`]+)`")
+
+
+def _plain(text: str) -> str:
+    """A docstring paragraph as Markdown: reST roles (``:func:`x` ``) as code, one line."""
+    text = _ROLE.sub(lambda match: f"`{match.group(1).split('.')[-1]}`", text)
+    return " ".join(text.replace("``", "`").split())
+
+
+def summary(cls) -> str:
+    """The first paragraph of a method class's docstring, as one line of Markdown."""
+    doc = (cls.__doc__ or "").strip()
+    return _plain(doc.split("\n\n")[0]) if doc else ""
+
+
+def _cell(value) -> str:
+    return str(value).replace("|", "\\|")
+
+
+def method_section(name: str) -> str:
+    """The reference section of method ``name``: summary, kind, parameters, presets."""
+    cls = methods.method_class(name)
+    kind = "causal (online)" if cls.causal else "offline"
+    lines = [
+        f"## `{name}`",
+        "",
+        summary(cls),
+        "",
+        f"{kind}; time stamps: {cls.time_stamps}; package: {methods.package_of(name)}"
+        + (f"; reference: {_plain(cls.reference)}" if getattr(cls, "reference", "") else ""),
+        "",
+    ]
+    specs = methods.params_of(cls)
+    if specs:
+        lines += [
+            "| parameter | default | admissible | tuned over | meaning |",
+            "|---|---|---|---|---|",
+        ]
+        for spec in specs:
+            if spec.choices is not None:
+                tuned = "its choices" if not spec.untuned else f"not tuned: {spec.untuned}"
+            elif spec.tune_low is not None:
+                scale = ", log" if spec.log else ""
+                tuned = f"[{spec.tune_low:g}, {spec.tune_high:g}]{scale}"
+            else:
+                tuned = f"not tuned{': ' + spec.untuned if spec.untuned else ''}"
+            if spec.ends_only:
+                tuned += " (whole record only)"
+            row = (f"`{spec.name}`", spec.default, spec.describe_range(), tuned, spec.doc)
+            lines.append("| " + " | ".join(_cell(value) for value in row) + " |")
+        lines.append("")
+    if cls.presets:
+        lines += ["| preset | values | by | source |", "|---|---|---|---|"]
+        for key, preset in sorted(cls.presets.items()):
+            values = ", ".join(f"{k}={v}" for k, v in preset.values.items())
+            row = (f"`{key}`", values, preset.by, preset.source)
+            lines.append("| " + " | ".join(_cell(value) for value in row) + " |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def methods_reference() -> str:
+    """The methods reference page: every registered method (offline, then causal)."""
+    names = methods.available(causal=False) + methods.available(causal=True)
+    head = [
+        "# Methods reference",
+        "",
+        f"Generated from the registry ({len(names)} methods, peers' adapters included): "
+        "`diffbench list` prints the same. The default is the class default; "
+        "*admissible* is what the method accepts, *tuned over* what the tuners search "
+        "(a parameter marked *whole record only* changes only the estimates near the ends, "
+        "which only a loss on the whole record tunes).",
+        "",
+    ]
+    return "\n".join(head + [method_section(name) for name in names])
+
+
+def results_folders(root: Path = RESULTS) -> list[Path]:
+    """The folders of committed results holding a Markdown table (stores left out)."""
+    return sorted(
+        {path.parent for path in root.rglob("*.md") if "store" not in path.relative_to(root).parts}
+    )
+
+
+def results_page(folder: Path, root: Path = RESULTS) -> str:
+    """The page of one results folder: each Markdown table (its title one level down) and
+    each figure, as written by the benchmark."""
+    relative = folder.relative_to(root.parent).as_posix()
+    parts = [f"# `{relative}/`", "", f"Generated from the files in `{relative}/`.", ""]
+    for table in sorted(folder.glob("*.md")):
+        text = table.read_text(encoding="utf-8")
+        parts.append(re.sub(r"^# ", "## ", text, count=1, flags=re.M).rstrip("\n"))
+        parts.append("")
+    for figure in sorted(folder.glob("*.png")):
+        parts += [f"![{figure.stem}]({figure.name})", ""]
+    return "\n".join(parts)
+
+
+def results_index(root: Path = RESULTS) -> str:
+    """The page listing every results page."""
+    lines = ["# Results", "", "Every folder of committed results, as the benchmark wrote it:", ""]
+    for folder in results_folders(root):
+        relative = folder.relative_to(root.parent).as_posix()
+        lines.append(f"- [`{relative}/`]({folder.relative_to(root).as_posix()}/index.md)")
+    return "\n".join(lines) + "\n"
+
+
+def on_files(files, config):
+    """MkDocs hook: add the generated pages and the results' figures to the site."""
+    from mkdocs.structure.files import File
+
+    files.append(File.generated(config, "reference/methods.md", content=methods_reference()))
+    files.append(File.generated(config, "results/index.md", content=results_index()))
+    for folder in results_folders():
+        within = folder.relative_to(RESULTS).as_posix()
+        page = results_page(folder)
+        files.append(File.generated(config, f"results/{within}/index.md", content=page))
+        for figure in sorted(folder.glob("*.png")):
+            uri = f"results/{within}/{figure.name}"
+            files.append(File.generated(config, uri, abs_src_path=str(figure)))
+    return files

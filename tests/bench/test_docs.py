@@ -1,0 +1,140 @@
+"""The front door (issue 46, items 1 and 2): a README of at most 150 lines whose figures come
+from generated files, its code run as a user would, and a documentation site that builds
+strictly with its methods reference and results pages generated."""
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from diffbench import methods
+from diffbench.bench.report import docs_site
+
+ROOT = Path(__file__).resolve().parents[2]
+README = (ROOT / "README.md").read_text(encoding="utf-8")
+GENERATED = re.compile(r"<!-- generated: (\S+) -->\n(.*?)<!-- end generated -->\n", re.S)
+
+ALLOWED_NUMBERS = {
+    "3.10",  # the Python the quick start needs
+    "2015",  # the seed paper's year
+    "4/9/15",  # the paper signal's lines, Hz
+    "2-joint",  # the robot
+    "2R",
+    "BSD-3",  # the licences
+    "BSD-3-Clause",
+}
+"""Digit-bearing words the README's hand-written prose may hold: facts of the project, not
+results (every result is in a generated block)."""
+
+
+def _blocks(text: str, language: str) -> list[str]:
+    return re.findall(rf"```{language}\n(.*?)```\n", text, re.S)
+
+
+def test_the_readme_is_at_most_150_lines():
+    assert len(README.splitlines()) <= 150
+
+
+def test_the_readmes_generated_blocks_are_the_generated_files_tables():
+    blocks = GENERATED.findall(README)
+    assert blocks, "the README quotes no generated file"
+    for source, block in blocks:
+        text = (ROOT / source).read_text(encoding="utf-8")
+        table = "".join(line for line in text.splitlines(keepends=True) if line.startswith("|"))
+        assert block == table, f"README's copy of {source} is stale: copy its table again"
+
+
+def test_no_result_is_typed_into_the_readmes_prose():
+    prose = GENERATED.sub("", README)
+    prose = re.sub(r"```.*?```\n", "", prose, flags=re.S)  # code: commands, not results
+    prose = re.sub(r"`[^`]*`", "", prose)
+    words = {w.strip(".,;:()*") for w in prose.split() if re.search(r"\d", w)}
+    assert words <= ALLOWED_NUMBERS, sorted(words - ALLOWED_NUMBERS)
+
+
+def test_the_readmes_python_runs_and_says_what_it_says():
+    (block,) = [b for b in _blocks(README, "python") if "stream.push" in b]
+    names = {}
+    exec(compile(block, "README.md", "exec"), names)
+    t, velocity, trusted = names["t"], names["velocity"], names["trusted"]
+    truth = 2 * np.pi * 3 * np.cos(2 * np.pi * 3 * t)
+    inside = (t > 0.3) & (t < 1.7)
+    # noise 0.01 through a 10 Hz low-pass: ẋ within a few percent of its amplitude 18.8
+    assert np.sqrt(np.mean((velocity[inside] - truth[inside]) ** 2)) < 0.05 * 2 * np.pi * 3
+    assert trusted[inside].all()
+    assert names["online"].shape == (100,)
+    assert names["jacobi"] == methods.preset("jacobi", "paper-signal")
+
+
+def test_the_readmes_method_registers_and_is_exact_on_a_parabola(tmp_path):
+    """Run in a process of its own: registering a method changes the registry for good."""
+    (block,) = [b for b in _blocks(README, "python") if "@register" in b]
+    check = (
+        "import numpy as np\n"
+        "from diffbench import methods\n"
+        "t = np.arange(0.0, 1.0, 0.001)\n"
+        "estimate = methods.preset('my_package.box_difference', 'paper-signal')(t**2, 0.001)\n"
+        "print(repr(float(estimate[1][500])), repr(float(estimate[2][500])))\n"
+    )
+    script = tmp_path / "readme_method.py"
+    script.write_text(block + check)
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    result = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, env=env)
+    assert result.returncode == 0, result.stderr
+    first, second = map(float, result.stdout.split())
+    # exact on degree 2 up to rounding: 41 box taps of the central difference, |taps|_1 =
+    # 1/dt for ẋ and 4/dt² for ẍ, on values below 1: eps × taps × |taps|_1 × max|x|
+    eps = np.finfo(float).eps
+    assert abs(first - 2 * 0.5) <= 43 * eps * 1e3
+    assert abs(second - 2.0) <= 43 * eps * 4e6
+
+
+def test_the_methods_reference_has_every_method_parameter_and_preset():
+    page = docs_site.methods_reference()
+    sections = dict(re.findall(r"^## `([^`]+)`\n(.*?)(?=^## `|\Z)", page, re.S | re.M))
+    assert set(sections) == set(methods.available(causal=None))
+    for name, text in sections.items():
+        cls = methods.method_class(name)
+        for spec in methods.params_of(cls):
+            assert f"| `{spec.name}` | {spec.default} |" in text, (name, spec.name)
+        for key, preset in cls.presets.items():
+            assert f"| `{key}` |" in text and preset.source.replace("|", "\\|") in text
+        assert ("causal (online)" in text) == cls.causal
+
+
+def test_each_results_folder_has_a_page_with_its_tables_and_figures():
+    folders = docs_site.results_folders()
+    assert ROOT / "results" / "paper-signal" in folders
+    assert ROOT / "results" / "studies" / "grid" in folders
+    assert not any("store" in folder.parts for folder in folders)
+    page = docs_site.results_page(ROOT / "results" / "paper-signal")
+    ranking = (ROOT / "results" / "paper-signal" / "ranking.md").read_text(encoding="utf-8")
+    assert ranking.splitlines()[2] in page  # the table as written
+    assert "![errors](errors.png)" in page
+    index = docs_site.results_index()
+    assert "(studies/grid/index.md)" in index
+
+
+def test_the_site_builds_strictly(tmp_path):
+    mkdocs = shutil.which("mkdocs", path=str(Path(sys.executable).parent))
+    if mkdocs is None:
+        pytest.skip("mkdocs is not installed (pip install 'diffbench[docs]'; make docs does)")
+    result = subprocess.run(
+        [mkdocs, "build", "--strict", "--quiet", "--site-dir", str(tmp_path / "site")],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        env={**os.environ, "NO_MKDOCS_2_WARNING": "1"},
+    )
+    assert result.returncode == 0, result.stderr
+    grid = (tmp_path / "site" / "results" / "studies" / "grid" / "index.html").read_text()
+    assert "Which differentiator on such records" in grid  # the study's tables, included
+    home = (tmp_path / "site" / "index.html").read_text()
+    assert "spectral" in home and "median" in home  # the generated table, included
+    assert (tmp_path / "site" / "reference" / "methods" / "index.html").exists()
+    assert (tmp_path / "site" / "results" / "paper-signal" / "errors.png").exists()
