@@ -505,6 +505,11 @@ class Recommendation:
     written: list[Path]
 
 
+def recommend_out(file: Path, out: Path | None = None) -> Path:
+    """Where :func:`recommend` writes for ``file``: ``out``, or ``recommend-<file stem>/``."""
+    return Path(out) if out is not None else Path(f"recommend-{Path(file).stem}")
+
+
 def recommend(
     file: Path,
     *,
@@ -515,11 +520,16 @@ def recommend(
     orders: Iterable[int] = (1, 2),
     budget: int | None = None,
     out: Path | None = None,
+    jobs: Workers = 1,
+    progress: bool = False,
 ) -> Recommendation:
     """Which method, with which settings, for a user's record (a ``.csv`` or ``.parquet`` file,
     one column per channel): the ranking, derivatives and figure go to ``out`` (default
-    ``recommend-<file stem>/``)."""
+    :func:`recommend_out`). ``jobs``: local worker processes or Dask workers, each tuning and
+    scoring one method for one order (the same recommendation as one process); ``progress``:
+    a bar per channel on stderr, with its time left."""
     orders = check("orders", order_list, orders)
+    jobs = ready(jobs)
     budget = None if budget is None else check("budget", positive_count, budget)
     columns = None if columns is None else check("columns", name_list, columns)
     names = method_names(methods)
@@ -527,8 +537,15 @@ def recommend(
     with checked():
         record = user_data.read_record(file, columns, time, dt)
     with checked():
-        results = advice.recommend_record(record, names, tuple(orders), max_evaluations=budget)
-    out = Path(out) if out is not None else Path(f"recommend-{file.stem}")
+        results = advice.recommend_record(
+            record,
+            names,
+            tuple(orders),
+            max_evaluations=budget,
+            jobs=jobs,
+            progress=progress_bar(progress, "tuning"),
+        )
+    out = recommend_out(file, out)
     best = {
         (channel, order): found.best(order)
         for channel, (found, _) in results.items()

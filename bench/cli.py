@@ -98,7 +98,7 @@ COMMANDS: dict[str, Command] = {
     "recommend": Command(
         "which method, with which settings, for your own record (CSV or Parquet)",
         api.recommend,
-        (*PLUG, "file2", "columns", "time", "dt", "methods3", "orders4", "budget2", "out2"),
+        (*PLUG, *ITEMS, "file2", "columns", "time", "dt", "methods3", "orders4", "budget2", "out2"),
     ),
     "recommend-check": Command(
         "score `recommend` against the truth on the signal scenarios (as if unknown)",
@@ -139,8 +139,11 @@ def _dispatch(argv: list[str]) -> None:
     """Parse ``argv``, call the command's API function, print what it returns."""
     args = build_parser().parse_args(argv)
     set_command(argv)
-    if isinstance(getattr(args, "out", None), Path):  # other packages' warnings: a log there
-        route_third_party_warnings(args.out / WARNINGS_LOG)
+    out = getattr(args, "out", None)
+    if args.command == "recommend":
+        out = api.recommend_out(args.file, out)
+    if isinstance(out, Path):  # other packages' warnings: a log there
+        route_third_party_warnings(out / WARNINGS_LOG)
     api.load_plugins(args.plugins)
     command = COMMANDS[args.command]
     given = {k: v for k, v in vars(args).items() if k not in CLI_ONLY}

@@ -26,6 +26,7 @@ the scored samples.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass
@@ -34,7 +35,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from diffbench import methods, signals
+from diffbench import methods
+from diffbench.bench.core import executor
 from diffbench.bench.core.scores import error_metrics
 from diffbench.bench.core.spectrum import RecordSpectrum, record_spectrum
 from diffbench.bench.core.surrogates import default_scored, surrogate_records
@@ -108,6 +110,8 @@ def recommend(
     seed: int = 0,
     max_evaluations: int | None = None,
     scored: np.ndarray | None = None,
+    jobs: executor.Workers = 1,
+    progress=None,
 ) -> Recommendation:
     """Recommend a method and its settings for the derivatives of ``orders`` of the 1-D
     record ``x`` sampled every ``dt`` seconds (see the module docstring).
@@ -115,7 +119,10 @@ def recommend(
     ``names``: the methods to consider (default every registered one); ``max_evaluations``
     bounds each tuning (the tuner's default otherwise); ``scored``: a boolean mask of the
     samples whose derivatives matter, where the error is predicted (default all but the first
-    and last 5 %).
+    and last 5 %). Each (method, order) is tuned and scored on its own, on ``jobs`` local
+    processes or Dask workers (:mod:`~diffbench.bench.core.executor`; the same result as one
+    process: each tuning is seeded by ``seed`` alone); ``progress(iterable, total)`` wraps
+    their results as they arrive (a progress bar).
     """
     samples = np.asarray(x, dtype=np.float64)
     if samples.ndim != 1:
@@ -128,11 +135,22 @@ def recommend(
         spectrum, samples, dt, TUNING_SURROGATES + SCORING_SURROGATES, seed=seed, scored=scored
     )
     tuning, scoring = drawn[:TUNING_SURROGATES], drawn[TUNING_SURROGATES:]
-    rows = []
-    for name in names if names is not None else methods.available():
-        for order in orders:
-            rows.append(_tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed))
-    table = pd.DataFrame(rows, columns=list(COLUMNS))
+    pairs = [
+        (name, order)
+        for name in (names if names is not None else methods.available())
+        for order in orders
+    ]
+    work = functools.partial(
+        _tuned_and_scored_pair,
+        tuning=tuning,
+        scoring=scoring,
+        max_evaluations=max_evaluations,
+        seed=seed,
+    )
+    rows = executor.ordered_map(work, pairs, jobs)
+    if progress is not None:
+        rows = progress(rows, len(pairs))
+    table = pd.DataFrame(list(rows), columns=list(COLUMNS))
     for column in ("predicted_rmse", "spread"):
         table[column] = table[column] * scale
     table["rank"] = table.groupby("order")["predicted_rmse"].rank(method="first", na_option="keep")
@@ -161,6 +179,13 @@ def scaled_estimate(estimate: methods.Estimate, scale: float) -> methods.Estimat
                 f"range (about {np.finfo(np.float64).max:.3g}): give the record in smaller units"
             )
     return methods.Estimate(values, dict(estimate.valid))
+
+
+def _tuned_and_scored_pair(pair, tuning, scoring, max_evaluations, seed) -> dict:
+    """:func:`_tuned_and_scored` of one ``(method name, order)``: the unit of work a worker
+    takes."""
+    name, order = pair
+    return _tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed)
 
 
 def _tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed) -> dict:
@@ -214,14 +239,17 @@ def _tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed) -> di
     }
 
 
-def recommend_record(record, names=None, orders=(1, 2), seed=0, max_evaluations=None):
+def recommend_record(
+    record, names=None, orders=(1, 2), seed=0, max_evaluations=None, jobs=1, progress=None
+):
     """:func:`recommend` for each channel of a
     :class:`~diffbench.bench.studies.user_data.UserRecord`, and the best method's estimates on
     the record itself (at its time stamps when it has irregular ones; the recommendation then
     runs on the record resampled, as a resampled method's is, onto the grid of its span with the
     step nearest its nominal one), computed on the channel divided by the recommendation's
     ``scale`` and scaled back. Returns ``{channel: (Recommendation, {order: Estimate})}``; a
-    ``ValueError`` when no method could be recommended for an order.
+    ``ValueError`` when no method could be recommended for an order. ``jobs``, ``progress``:
+    as for :func:`recommend`.
     """
     irregular = record.t is not None and not record.uniform
     if irregular:  # onto the grid a resampled method would use (methods._time_stamps)
@@ -231,7 +259,16 @@ def recommend_record(record, names=None, orders=(1, 2), seed=0, max_evaluations=
     for index, channel in enumerate(record.channels):
         x = record.x[:, index]
         uniform_x, step = (on_grid[:, index], grid_step) if irregular else (x, record.dt_s)
-        recommendation = recommend(uniform_x, step, names, tuple(orders), seed, max_evaluations)
+        recommendation = recommend(
+            uniform_x,
+            step,
+            names,
+            tuple(orders),
+            seed,
+            max_evaluations,
+            jobs=jobs,
+            progress=progress,
+        )
         estimates = {}
         for order in orders:
             name, params = recommendation.best(order)
@@ -377,205 +414,3 @@ def _figure(record, results, time, path: Path) -> None:
     figure.tight_layout()
     figure.savefig(path, dpi=110, metadata=figures.PNG_METADATA)
     plt.close(figure)
-
-
-VALIDATION_METHODS = (
-    "spectral",
-    "savitzky_golay",
-    "butterworth",
-    "kalman",
-    "gaussian_kernel",
-    "finite_difference",
-)
-"""The methods the validation recommends among by default: the native ones that tune in
-seconds (the Gaussian processes, Jacobi and the peers take minutes per record)."""
-
-
-def validation_scenarios() -> list[str]:
-    """The scenarios ``recommend-check`` validates on by default: every registered one that is
-    sampled uniformly and noisy, less the random signals of the limit study (they have their
-    own)."""
-    return [
-        name
-        for name in signals.available_scenarios()
-        if not (scenario := signals.get_scenario(name)).sampling
-        and scenario.noise.models
-        and not name.startswith("limit-")
-    ]
-
-
-def validate(scenario: str, names=VALIDATION_METHODS, seed: int = 0, max_evaluations=150):
-    """Rows scoring :func:`recommend` on one uniformly sampled scenario as if its truth were
-    unknown: for each order, the recommended method and setting, its predicted RMSE, its true
-    interior RMSE on the record, and the best true RMSE any of ``names`` reaches tuned by the
-    oracle on the same record (the most a data-only choice could reach).
-
-    Beside it, PyNumDiff's data-only tuning (its loss, :func:`~diffbench.bench.core.tuning.
-    no_truth_loss`, with its weight γ from a bandlimit guess: the band ``recommend`` read off
-    the periodogram) tunes each of ``names`` and picks the one of lowest loss: its true RMSE
-    (``pynumdiff_*`` columns). Both ratios to the best known: :func:`with_best_known`."""
-
-    realisation = signals.get_scenario(scenario).realise(seed)
-    if not getattr(realisation, "uniform", True):
-        raise ValueError(f"{scenario}: irregular time stamps are not validated yet")
-    start = time.perf_counter()
-    # the samples to be scored are the user's to say (not the truth): the scenario's interior
-    advice = recommend(
-        realisation.x,
-        realisation.dt_s,
-        list(names),
-        (1, 2),
-        seed,
-        max_evaluations,
-        scored=realisation.interior,
-    )
-    guess_hz = advice.spectrum.band_hz
-    rows = []
-    for order in (1, 2):
-        name, params = advice.best(order)
-        predicted = advice.table[
-            (advice.table["order"] == order) & (advice.table["method"] == name)
-        ].iloc[0]
-        oracle, by_pynumdiff = {}, {}
-        for candidate in names:
-            try:
-                oracle[candidate] = tune(
-                    candidate,
-                    realisation,
-                    order,
-                    "oracle",
-                    max_evaluations=max_evaluations,
-                    region=REGION,
-                ).loss
-            except ValueError:
-                continue
-            if guess_hz > 0:
-                try:
-                    by_pynumdiff[candidate] = tune(
-                        candidate,
-                        realisation,
-                        order,
-                        "pynumdiff",
-                        cutoff_hz=guess_hz,
-                        max_evaluations=max_evaluations,
-                        region=REGION,
-                    )
-                except ValueError:
-                    pass
-        best = min(oracle, key=oracle.get)
-        true = _true_rmse(realisation, name, params, order)
-        row = {
-            "scenario": scenario,
-            "seed": seed,
-            "order": order,
-            "band_hz": guess_hz,
-            "noise_std": advice.noise_std,
-            "recommended": name,
-            "params": _settings(params),
-            "predicted_rmse": predicted["predicted_rmse"],
-            "true_rmse": true,
-            "oracle_best": best,
-            "oracle_rmse": oracle[best],
-            "pynumdiff_choice": "",
-            "pynumdiff_params": "",
-            "pynumdiff_rmse": math.nan,
-        }
-        finite = {k: v for k, v in by_pynumdiff.items() if math.isfinite(v.loss)}
-        if finite:
-            choice = min(finite, key=lambda k: finite[k].loss)
-            chosen = _true_rmse(realisation, choice, finite[choice].params, order)
-            row.update(
-                pynumdiff_choice=choice,
-                pynumdiff_params=_settings(finite[choice].params),
-                pynumdiff_rmse=chosen,
-            )
-        row["seconds"] = time.perf_counter() - start
-        rows.append(with_best_known(row))
-    return rows
-
-
-def with_best_known(row: dict) -> dict:
-    """The row with ``best_rmse``, the lowest true RMSE known for these methods on the record:
-    the oracle's tunings, or the recommended or PyNumDiff's setting where one of them beat them
-    (the oracle's search is not exhaustive: a 9301-sample record, 150 evaluations), and the
-    ratios ``ratio`` and ``pynumdiff_ratio`` to it (never below 1)."""
-    known = [row["oracle_rmse"], row["true_rmse"], row.get("pynumdiff_rmse", math.nan)]
-    best = min(value for value in known if math.isfinite(value))
-    return {
-        **row,
-        "best_rmse": best,
-        "ratio": row["true_rmse"] / best,
-        "pynumdiff_ratio": row.get("pynumdiff_rmse", math.nan) / best,
-    }
-
-
-def _true_rmse(realisation, name: str, params: dict, order: int) -> float:
-    estimate = methods.get(name, **params)(realisation.x, realisation.dt_s, (order,))
-    scored = realisation.interior
-    if not estimate.estimated(order)[scored].all():
-        return math.inf
-    return error_metrics(estimate[order], realisation.truth[order], scored)["rmse"]
-
-
-def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
-    """``validation.csv`` (every row) and ``validation.md`` (per order: median and worst ratio
-    of the recommendation and of PyNumDiff's data-only tuning, then every scenario) in
-    ``out``."""
-
-    out.mkdir(parents=True, exist_ok=True)
-    rows = [with_best_known(row) for row in rows]
-    frame = pd.DataFrame(rows).sort_values(["order", "scenario"]).reset_index(drop=True)
-    frame.to_csv(out / "validation.csv", index=False)
-    lines = ["# Data-only recommendation against the truth", ""]
-    for order, group in frame.groupby("order"):
-        symbol = "ẋ" if order == 1 else "ẍ"
-        line = (
-            f"- {symbol}: true RMSE of the recommended setting over the best known, median "
-            f"{group['ratio'].median():.3g}, worst {group['ratio'].max():.3g} "
-            f"({group.loc[group['ratio'].idxmax(), 'scenario']}), over {len(group)} scenarios"
-        )
-        peer = group["pynumdiff_ratio"].dropna()
-        if len(peer):
-            line += (
-                f"; PyNumDiff's data-only tuning: median {peer.median():.3g}, worst "
-                f"{peer.max():.3g} ({group.loc[peer.idxmax(), 'scenario']}), over {len(peer)}"
-            )
-        lines.append(line)
-    shown = pd.DataFrame(
-        {
-            "scenario": frame["scenario"],
-            "n": frame["order"].map({1: "ẋ", 2: "ẍ"}),
-            "band (Hz)": frame["band_hz"].map("{:.3g}".format),
-            "noise std": frame["noise_std"].map("{:.3g}".format),
-            "recommended": frame["recommended"],
-            "settings": frame["params"],
-            "predicted": frame["predicted_rmse"].map("{:.4g}".format),
-            "true": frame["true_rmse"].map("{:.4g}".format),
-            "oracle-tuned best": frame["oracle_best"]
-            + " "
-            + frame["oracle_rmse"].map("{:.4g}".format),
-            "ratio": frame["ratio"].map("{:.3g}".format),
-        }
-    )
-    # with_best_known gave every row its pynumdiff_ratio (NaN where PyNumDiff tuned nothing)
-    shown["PyNumDiff's choice"] = [
-        f"{choice} {rmse:.4g}" if isinstance(choice, str) and choice else "—"
-        for choice, rmse in zip(frame["pynumdiff_choice"], frame["pynumdiff_rmse"], strict=True)
-    ]
-    shown["its ratio"] = [f"{r:.3g}" if np.isfinite(r) else "—" for r in frame["pynumdiff_ratio"]]
-    note = (
-        "Each scenario's seed-0 record, its truth unknown to `recommend` (band and noise read "
-        "off its periodogram, lines fitted, every method tuned on surrogate records) but for "
-        "the samples to be scored (the scenario's interior); **oracle-tuned best**: the best "
-        "of the same methods tuned by the oracle on the record itself (150 evaluations each); "
-        "**ratio**: true / the best known (the oracle-tuned best, or the recommended or "
-        "PyNumDiff's setting where it did better: the oracle's search is not exhaustive). "
-        "**PyNumDiff's choice**: each method tuned by PyNumDiff's data-only loss (RMSE of the "
-        "re-integrated derivative + γ·TV, γ from its heuristic given the band `recommend` "
-        "read off the periodogram as the cutoff guess), the one of lowest loss, its true RMSE "
-        "and ratio to the same best known. Methods offered: " + ", ".join(names) + "."
-    )
-    (out / "validation.md").write_text(
-        "\n".join(lines) + "\n\n" + markdown_table(shown) + "\n\n" + note + "\n"
-    )
-    return [out / "validation.md", out / "validation.csv"]

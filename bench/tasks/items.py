@@ -28,7 +28,7 @@ import pandas as pd
 
 from diffbench import methods, signals
 from diffbench.bench.core import tuning
-from diffbench.bench.studies import paper, pareto, recommend, timing
+from diffbench.bench.studies import paper, pareto, recommend_check, timing
 from diffbench.bench.tasks.base import Task
 
 
@@ -87,8 +87,8 @@ def _json(value: Any) -> Any:
 class RecommendCheck(ItemStudy):
     """The data-only recommendation checked against the truth: on each scenario (an item),
     ``recommend`` without the truth against the oracle's best, per order
-    (:func:`diffbench.bench.studies.recommend.validate`). ``scenarios``: default
-    :func:`~diffbench.bench.studies.recommend.validation_scenarios`."""
+    (:func:`diffbench.bench.studies.recommend_check.validate`). ``scenarios``: default
+    :func:`~diffbench.bench.studies.recommend_check.validation_scenarios`."""
 
     scenarios: tuple[str, ...] = ()
     name: str = "recommend-check"
@@ -110,17 +110,17 @@ class RecommendCheck(ItemStudy):
         return "recommend-validation"
 
     def items(self, method_names, seeds):
-        names = list(method_names or recommend.VALIDATION_METHODS)
-        return [Item(s, names) for s in self.scenarios or recommend.validation_scenarios()]
+        names = list(method_names or recommend_check.VALIDATION_METHODS)
+        return [Item(s, names) for s in self.scenarios or recommend_check.validation_scenarios()]
 
     def compute(self, item):
-        rows = recommend.validate(item.name, names=tuple(item.setting))
+        rows = recommend_check.validate(item.name, names=tuple(item.setting))
         return [_json({**row, "methods": ",".join(item.setting)}) for row in rows]
 
     def write(self, rows, directory):
         names = next(iter(rows)).setting
         flat = [row for found in rows.values() for row in found]
-        return recommend.write_validation(flat, directory, names)
+        return recommend_check.write_validation(flat, directory, names)
 
 
 @dataclass(frozen=True, eq=False)

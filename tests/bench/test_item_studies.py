@@ -21,7 +21,7 @@ from diffbench.bench import tasks as tasks_package
 from diffbench.bench.cli import main
 from diffbench.bench.core.executor import DaskWorkers
 from diffbench.bench.core.store import Store
-from diffbench.bench.studies import paper, pareto, recommend
+from diffbench.bench.studies import paper, pareto, recommend_check
 from diffbench.bench.tasks import (
     ItemStudy,
     PaperFigures,
@@ -87,7 +87,7 @@ def test_the_former_bespoke_commands_are_registered_item_studies():
     fronts = get_task("pareto").items(["jacobi", "spectral"], range(1))
     assert len(fronts) == 2 * len(pareto.SCENARIOS)  # a method on a record
     assert get_task("recommend-check").items(None, range(1))[0].setting == list(
-        recommend.VALIDATION_METHODS
+        recommend_check.VALIDATION_METHODS
     )
     assert [item.setting for item in get_task("paper-figures").items(["jacobi"], range(7))] == [
         {"seeds": 7}

@@ -85,6 +85,35 @@ def test_recommend_writes_its_table_derivatives_and_figure(user_csv, tmp_path, c
     assert measured == pytest.approx(0.01, rel=0.1)
 
 
+def test_recommend_on_two_workers_and_on_dask_gives_the_serial_recommendation(
+    user_csv, tmp_path, capsys
+):
+    """Each (method, order) tuned and scored apart, on two processes or Dask workers: the
+    same ranking (but the seconds each took), the same derivatives file; the progress bar
+    counts the tunings on stderr."""
+    pytest.importorskip("distributed")
+    path, _, _ = user_csv
+    common = ["recommend", str(path), "--time", "t", "--column", "x", "--orders", "1,2"]
+    common += ["--methods", "savitzky_golay,butterworth", "--budget", "40"]
+    outputs = {}
+    for name, extra in (
+        ("serial", ["--no-progress"]),
+        ("jobs", ["--jobs", "2"]),
+        ("dask", ["--jobs", "2", "--executor", "dask", "--no-progress"]),
+    ):
+        assert main([*common, *extra, "--out", str(tmp_path / name)]) == 0
+        captured = capsys.readouterr()
+        outputs[name] = tmp_path / name
+        if name == "jobs":
+            assert re.search(r"4/4 \[.*tuning", captured.err), captured.err  # 2 methods x 2
+    serial = pd.read_csv(outputs["serial"] / "ranking.csv").drop(columns="seconds")
+    for name in ("jobs", "dask"):
+        table = pd.read_csv(outputs[name] / "ranking.csv").drop(columns="seconds")
+        pd.testing.assert_frame_equal(table, serial)
+        derivatives = (outputs[name] / "derivatives.csv").read_bytes()
+        assert derivatives == (outputs["serial"] / "derivatives.csv").read_bytes()
+
+
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
