@@ -20,11 +20,6 @@ from pathlib import Path
 
 from diffbench import methods
 
-ROOT = Path(__file__).resolve().parents[2]
-"""The repository (the folder holding ``mkdocs.yml`` and ``results/``)."""
-
-RESULTS = ROOT / "results"
-
 _ROLE = re.compile(r":(?:\w+:)+`~?([^`]+)`")
 
 
@@ -102,16 +97,18 @@ def methods_reference() -> str:
     return "\n".join(head + [method_section(name) for name in names])
 
 
-def results_folders(root: Path = RESULTS) -> list[Path]:
-    """The folders of committed results holding a Markdown table (stores left out)."""
+def results_folders(root: Path) -> list[Path]:
+    """The folders under ``root`` (a checkout's ``results/``) holding a Markdown table, the
+    stores left out."""
     return sorted(
         {path.parent for path in root.rglob("*.md") if "store" not in path.relative_to(root).parts}
     )
 
 
-def results_page(folder: Path, root: Path = RESULTS) -> str:
+def results_page(folder: Path, root: Path) -> str:
     """The page of one results folder: each Markdown table (its title one level down) and
-    each figure, as written by the benchmark."""
+    each figure, as written by the benchmark (``folder`` under ``root``, the ``results/``
+    folder)."""
     relative = folder.relative_to(root.parent).as_posix()
     parts = [f"# `{relative}/`", "", f"Generated from the files in `{relative}/`.", ""]
     for table in sorted(folder.glob("*.md")):
@@ -123,7 +120,7 @@ def results_page(folder: Path, root: Path = RESULTS) -> str:
     return "\n".join(parts)
 
 
-def results_index(root: Path = RESULTS) -> str:
+def results_index(root: Path) -> str:
     """The page listing every results page."""
     lines = ["# Results", "", "Every folder of committed results, as the benchmark wrote it:", ""]
     for folder in results_folders(root):
@@ -136,11 +133,12 @@ def on_files(files, config):
     """MkDocs hook: add the generated pages and the results' figures to the site."""
     from mkdocs.structure.files import File
 
+    results = Path(config.config_file_path).parent / "results"  # beside mkdocs.yml
     files.append(File.generated(config, "reference/methods.md", content=methods_reference()))
-    files.append(File.generated(config, "results/index.md", content=results_index()))
-    for folder in results_folders():
-        within = folder.relative_to(RESULTS).as_posix()
-        page = results_page(folder)
+    files.append(File.generated(config, "results/index.md", content=results_index(results)))
+    for folder in results_folders(results):
+        within = folder.relative_to(results).as_posix()
+        page = results_page(folder, results)
         files.append(File.generated(config, f"results/{within}/index.md", content=page))
         for figure in sorted(folder.glob("*.png")):
             uri = f"results/{within}/{figure.name}"

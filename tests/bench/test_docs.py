@@ -108,15 +108,16 @@ def test_the_methods_reference_has_every_method_parameter_and_preset():
 
 
 def test_each_results_folder_has_a_page_with_its_tables_and_figures():
-    folders = docs_site.results_folders()
-    assert ROOT / "results" / "paper-signal" in folders
-    assert ROOT / "results" / "studies" / "grid" in folders
-    assert not any("store" in folder.parts for folder in folders)
-    page = docs_site.results_page(ROOT / "results" / "paper-signal")
+    results = ROOT / "results"
+    folders = docs_site.results_folders(results)
+    assert results / "paper-signal" in folders
+    assert results / "studies" / "grid" in folders
+    assert not any("store" in folder.relative_to(results).parts for folder in folders)
+    page = docs_site.results_page(results / "paper-signal", results)
     ranking = (ROOT / "results" / "paper-signal" / "ranking.md").read_text(encoding="utf-8")
     assert ranking.splitlines()[2] in page  # the table as written
     assert "![errors](errors.png)" in page
-    index = docs_site.results_index()
+    index = docs_site.results_index(results)
     assert "(studies/grid/index.md)" in index
 
 
