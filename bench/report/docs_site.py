@@ -19,6 +19,7 @@ import re
 from pathlib import Path
 
 from diffbench import methods
+from diffbench.bench.report import explorer
 
 _ROLE = re.compile(r":(?:\w+:)+`~?([^`]+)`")
 
@@ -110,7 +111,13 @@ def results_page(folder: Path, root: Path) -> str:
     each figure, as written by the benchmark (``folder`` under ``root``, the ``results/``
     folder)."""
     relative = folder.relative_to(root.parent).as_posix()
-    parts = [f"# `{relative}/`", "", f"Generated from the files in `{relative}/`.", ""]
+    parts = [
+        f"# `{relative}/`",
+        "",
+        f"Generated from the files in `{relative}/`. The same tables to sort, filter and "
+        "plot: [the explorer](explorer.html).",
+        "",
+    ]
     for table in sorted(folder.glob("*.md")):
         text = table.read_text(encoding="utf-8")
         parts.append(re.sub(r"^# ", "## ", text, count=1, flags=re.M).rstrip("\n"))
@@ -136,10 +143,17 @@ def on_files(files, config):
     results = Path(config.config_file_path).parent / "results"  # beside mkdocs.yml
     files.append(File.generated(config, "reference/methods.md", content=methods_reference()))
     files.append(File.generated(config, "results/index.md", content=results_index(results)))
+    script = f"assets/{explorer.PLOTLY_JS}"
+    files.append(File.generated(config, script, content=explorer.plotly_js()))
     for folder in results_folders(results):
         within = folder.relative_to(results).as_posix()
         page = results_page(folder, results)
         files.append(File.generated(config, f"results/{within}/index.md", content=page))
+        # the page's URL is results/<within>/explorer.html: as deep as <within>, plus one
+        up = "../" * (len(Path(within).parts) + 1)
+        title = f"results/{within}/"
+        interactive = explorer.explorer_page(folder, title, assets=f"{up}assets")
+        files.append(File.generated(config, f"results/{within}/explorer.html", content=interactive))
         for figure in sorted(folder.glob("*.png")):
             uri = f"results/{within}/{figure.name}"
             files.append(File.generated(config, uri, abs_src_path=str(figure)))

@@ -1,0 +1,120 @@
+"""The results explorer (issue 46, item 3): a static page per results folder with sortable,
+filterable tables and interactive figures, working offline from files; tested in a real
+browser (headless Chromium driven by Playwright) where one is installed, as CI installs it."""
+
+import re
+import shutil
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from diffbench.bench.report import explorer
+
+ROOT = Path(__file__).resolve().parents[2]
+RESULTS = ROOT / "results"
+CHROMIUM_ARGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
+
+
+def test_markdown_tables_are_read_as_written():
+    text = (
+        "# A title\n\nintro\n\n| method | RMSE ẋ | RMSE ẋ |\n|:--|:--|:--|\n"
+        "| a | 1.5 ± 0.2 | 3 |\n| b | 10 ± 1 | 4 |\n\nafter\n"
+    )
+    ((title, table),) = explorer.markdown_tables(text)
+    assert title == "A title"
+    assert list(table.columns) == ["method", "RMSE ẋ", "RMSE ẋ (2)"]  # names made unique
+    assert table.values.tolist() == [["a", "1.5 ± 0.2", "3"], ["b", "10 ± 1", "4"]]
+    assert explorer.interval_columns(table) == ["RMSE ẋ"]
+    figure = explorer.ranking_figure(table)
+    assert [trace["name"] for trace in figure["data"]] == ["a", "b"]  # a trace per method
+    assert figure["data"][1]["x"] == [10.0] and figure["data"][1]["error_x"]["array"] == [1.0]
+
+
+def test_a_page_holds_every_table_of_the_folder_and_loads_plotly_from_its_assets():
+    folder = RESULTS / "paper-signal"
+    page = explorer.explorer_page(folder, "paper-signal", assets="../assets")
+    tables = [t for path in folder.glob("*.md") for t in explorer.markdown_tables(path.read_text())]
+    assert page.count("<table") == len(tables) >= 3
+    assert '<script src="../assets/plotly.min.js"></script>' in page
+    assert "http" not in page.split("<body>")[1]  # nothing fetched from a server
+
+
+def _browser():
+    pytest.importorskip("plotly", reason="plotly is not installed (pip install 'diffbench[docs]')")
+    sync_api = pytest.importorskip(
+        "playwright.sync_api", reason="Playwright is not installed (pip install playwright)"
+    )
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        pytest.skip("no Chromium on PATH (Debian: apt-get install chromium; .ci/run installs it)")
+    return sync_api, chromium
+
+
+def test_the_explorer_sorts_filters_toggles_and_draws_in_a_real_browser(tmp_path):
+    sync_api, chromium = _browser()
+    folder = RESULTS / "paper-signal"
+    (page_path, _) = explorer.write_explorer(folder, tmp_path, "paper-signal")
+    rmse = explorer.markdown_tables((folder / "rmse.md").read_text())[0][1]
+    tables = [
+        t for p in sorted(folder.glob("*.md")) for t in explorer.markdown_tables(p.read_text())
+    ]
+    index = next(i for i, (_, t) in enumerate(tables, 1) if t.equals(rmse))
+    column = "RMSE ẋ interior"
+    means = [float(cell.split("±")[0]) for cell in rmse[column]]
+    with sync_api.sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=chromium, args=CHROMIUM_ARGS)
+        page = browser.new_page()
+        errors = []
+        page.on("pageerror", lambda error: errors.append(str(error)))
+        page.goto(page_path.as_uri())
+        page.wait_for_selector(".js-plotly-plot .main-svg")  # a figure rendered
+        table = page.locator(f"#table-{index}")
+        column_index = list(rmse.columns).index(column)
+        first_cell = table.locator("tbody tr").first.locator("td").nth(column_index)
+        header = table.locator("th").nth(column_index)
+        header.click()  # ascending
+        assert float(first_cell.inner_text().split("±")[0]) == min(means)
+        header.click()  # descending
+        assert float(first_cell.inner_text().split("±")[0]) == max(means)
+        page.locator(f'input[data-table="table-{index}"]').fill("kalman")
+        shown = table.locator("tbody tr:not([hidden])")
+        assert shown.count() == sum("kalman" in " ".join(row) for row in rmse.values.tolist())
+        assert all("kalman" in text for text in shown.all_inner_texts())
+        # the legend toggles a method's trace in the ranking figure above the rmse table
+        figure = f"figure-{index}"
+        name = page.locator("text.legendtext", has_text=re.compile(r"^kalman$"))
+        item = page.locator(f"#{figure} g.traces", has=name)
+        item.locator("rect.legendtoggle").click()  # what a click on the legend lands on
+        # Plotly toggles once its double-click delay has passed (a single click, then)
+        hidden = f"document.getElementById('{figure}').data.find(t => t.name == 'kalman')"
+        page.wait_for_function(f"{hidden}.visible === 'legendonly'", timeout=10_000)
+        traces = page.evaluate(f"document.getElementById('{figure}').data.length")
+        assert traces == len(set(rmse["method"]))
+        assert errors == []
+        browser.close()
+
+
+@pytest.mark.parametrize("folder", ["studies/online", "studies/paper-figures"])
+def test_the_special_figures_read_their_csv(folder):
+    path = RESULTS / folder
+    csv = path / ("sweep.csv" if folder.endswith("online") else "error_vs_position.csv")
+    frame = pd.read_csv(csv)
+    build = explorer.delay_figure if folder.endswith("online") else explorer.position_figure
+    figure = build(frame)
+    if folder.endswith("online"):
+        swept = frame[(frame["order"] == "ẋ") & (frame["delay (ms)"] > 0)]
+        assert sum(len(t["x"]) for t in figure["data"]) == len(swept)
+    else:
+        methods = [c for c in frame.columns if c.endswith("_velocity_rms_error")]
+        assert len(figure["data"]) == len(methods)
+        assert all(len(t["y"]) == len(frame) for t in figure["data"])
