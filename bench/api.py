@@ -516,7 +516,8 @@ def recommend(
     columns: Iterable[str] | None = None,
     time: str | None = None,
     dt: float | None = None,
-    methods: str | Iterable[str] = ("native",),
+    methods: str | Iterable[str] | None = None,
+    causal: bool = False,
     orders: Iterable[int] = (1, 2),
     budget: int | None = None,
     out: Path | None = None,
@@ -527,12 +528,21 @@ def recommend(
     one column per channel): the ranking, derivatives and figure go to ``out`` (default
     :func:`recommend_out`). ``jobs``: local worker processes or Dask workers, each tuning and
     scoring one method for one order (the same recommendation as one process); ``progress``:
-    a bar per channel on stderr, with its time left."""
+    a bar per channel on stderr, with its time left. ``methods``: names or groups (default
+    ``native``); ``causal``: for online use, among the causal methods only (default all of
+    them: the estimate at t from the samples up to t, scored as they run on a stream)."""
     orders = check("orders", order_list, orders)
     jobs = ready(jobs)
     budget = None if budget is None else check("budget", positive_count, budget)
     columns = None if columns is None else check("columns", name_list, columns)
-    names = method_names(methods)
+    names = method_names(methods if methods is not None else ("causal" if causal else "native"))
+    offline = [name for name in names if not methods_module.method_class(name).causal]
+    if causal and offline:
+        verb = "is not causal (it reads" if len(offline) == 1 else "are not causal (they read"
+        raise BadInput(
+            f"--causal: {', '.join(offline)} {verb} samples after t); drop "
+            f"{'it' if len(offline) == 1 else 'them'}, or give --methods causal"
+        )
     file = Path(file)
     with checked():
         record = user_data.read_record(file, columns, time, dt)

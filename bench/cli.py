@@ -39,6 +39,7 @@ RUN = (*OUT, *WORK, "seeds", "methods", *PLUG)
 TUNE = (*OUT, *WORK, "seeds", *PLUG, "method", "task2", "criteria", "orders2", "cutoff_hz")
 TUNE = (*TUNE, "tuning_seed", "tuning_seeds", "budget", "region")
 SWEEP = (*OUT, *WORK, *PLUG, "methods", "seeds2", "orders3")
+ADVICE = ("methods3", "causal", "orders4", "budget2", "out2")
 
 
 def _list() -> list[str]:
@@ -98,7 +99,7 @@ COMMANDS: dict[str, Command] = {
     "recommend": Command(
         "which method, with which settings, for your own record (CSV or Parquet)",
         api.recommend,
-        (*PLUG, *ITEMS, "file2", "columns", "time", "dt", "methods3", "orders4", "budget2", "out2"),
+        (*PLUG, *ITEMS, "file2", "columns", "time", "dt", *ADVICE),
     ),
     "recommend-check": Command(
         "score `recommend` against the truth on the signal scenarios (as if unknown)",

@@ -131,7 +131,19 @@ OPTIONS: dict[str, tuple[tuple[str, ...], dict[str, Any]]] = {
     ),
     "methods3": (
         ("--methods",),
-        dict(type=typed(name_list), default=["native"], help=f"{GROUPS_HELP}; default: native)"),
+        dict(
+            type=typed(name_list),
+            default=None,
+            help=f"{GROUPS_HELP}; default: native, or causal with --causal)",
+        ),
+    ),
+    "causal": (
+        ("--causal",),
+        dict(
+            action="store_true",
+            help="for online use: recommend among the causal methods only (the estimate at t "
+            "from the samples up to t), scored as they run on a stream",
+        ),
     ),
     "methods4": (
         ("--methods",),

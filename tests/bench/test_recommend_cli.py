@@ -2,13 +2,14 @@
 with noise and a jittered time column (`diffbench export pendulum-500hz-jitter`). Exact truth:
 the oscillation's analytic derivatives, written beside it."""
 
+import ast
 import re
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from diffbench import signals
+from diffbench import methods, signals
 from diffbench.bench.cli import main
 from diffbench.bench.core.store import Store
 from diffbench.bench.studies.user_data import read_record
@@ -112,6 +113,41 @@ def test_recommend_on_two_workers_and_on_dask_gives_the_serial_recommendation(
         pd.testing.assert_frame_equal(table, serial)
         derivatives = (outputs[name] / "derivatives.csv").read_bytes()
         assert derivatives == (outputs["serial"] / "derivatives.csv").read_bytes()
+
+
+def test_recommend_causal_ranks_the_causal_methods_as_they_run_online(tmp_path, capsys):
+    """--causal on a uniformly sampled record (the paper signal, exported): only causal
+    methods, and the derivatives written are the causal estimate (at t from the samples up to
+    t: changing the record after a time leaves every estimate before it as it was)."""
+    path = tmp_path / "paper.csv"
+    assert main(["export", "paper-signal", str(path)]) == 0
+    capsys.readouterr()
+    argv = ["recommend", str(path), "--time", "t", "--column", "x", "--orders", "1"]
+    argv += ["--causal", "--budget", "40", "--no-progress", "--out", str(tmp_path / "online")]
+    assert main(argv) == 0
+    ranking = pd.read_csv(tmp_path / "online" / "ranking.csv")
+    assert set(ranking["method"]) == set(methods.available(causal=True))
+    best = ranking.sort_values("rank").iloc[0]
+    params = ast.literal_eval(best["params"])
+    record = pd.read_csv(path)
+    x = record["x"].to_numpy()
+    written = pd.read_csv(tmp_path / "online" / "derivatives.csv")["x_d1"].to_numpy()
+    method = methods.get(best["method"], **params)
+    cut = x.size // 2
+    changed = x.copy()
+    changed[cut:] += 1.0
+    dt = float(record["t"].iloc[1] - record["t"].iloc[0])
+    before = method(x, dt, (1,))[1]
+    np.testing.assert_array_equal(method(changed, dt, (1,))[1][:cut], before[:cut])
+    # the file holds that estimate (the recommendation runs on the record divided by its half
+    # range and scales back: equal to the rounding of that scaling)
+    finite = np.isfinite(written)
+    scale = np.max(np.abs(before[finite]))
+    assert np.max(np.abs(written[finite] - before[finite])) <= 1e3 * np.finfo(float).eps * scale
+    # and --causal with an offline method is refused, naming it
+    code = main([*argv[:-2], "--methods", "spectral,kalman_filter", "--out", str(tmp_path)])
+    assert code == 2
+    assert "--causal: spectral is not causal (it reads samples after t)" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(
