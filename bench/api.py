@@ -546,6 +546,11 @@ def recommend(
     file = Path(file)
     with checked():
         record = user_data.read_record(file, columns, time, dt)
+    if causal and record.t is not None and not record.uniform:
+        raise BadInput(
+            f"--causal: {file} has irregular time stamps; the causal methods take uniformly "
+            "sampled records only (resampling reads the next sample): give a uniform record"
+        )
     with checked():
         results = advice.recommend_record(
             record,

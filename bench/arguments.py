@@ -222,7 +222,10 @@ GROUPS = {
 def _expand(name: str) -> list[str]:
     """A method name, or every method of a group (:data:`GROUPS`)."""
     if name not in GROUPS:
-        return [name]
+        group = methods.did_you_mean(name, GROUPS)
+        if group and name not in methods.available(causal=None):  # a mistyped group
+            raise ValueError(f"unknown method or group {name!r}; {group}")
+        return [name]  # a method: its registry says what is wrong with it, if anything
     if name == "causal":
         return methods.available(causal=True)
     everything = methods.available()

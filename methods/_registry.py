@@ -610,6 +610,8 @@ def available(causal: bool | None = False) -> list[str]:
 
 def method_class(name: str) -> type[Method]:
     """The class registered as ``name``; an unknown name lists the valid ones."""
+    if not isinstance(name, str):
+        raise ValueError(f"a method name must be a string, got {name!r}")
     load_automatic_plugins()
     try:
         return _REGISTRY[name]
@@ -624,7 +626,7 @@ def get(name: str, **params: Any) -> Method:
     valid = [spec.name for spec in params_of(cls)]
     unknown = sorted(set(params) - set(valid))
     if unknown:
-        close = [hint for u in unknown if (hint := did_you_mean(u, valid))]
+        close = [f"{u}: {hint}" for u in unknown if (hint := did_you_mean(u, valid))]
         raise ValueError(
             f"unknown parameter(s) {', '.join(unknown)} for method {name!r}; "
             + "".join(f"{hint} " for hint in close)

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import html
 import json
+import math
 import re
 from pathlib import Path
 
@@ -27,7 +28,8 @@ import pandas as pd
 PLOTLY_JS = "plotly.min.js"
 """The file the pages load Plotly from, in the site's ``assets/`` folder."""
 
-_NUMBER = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*±\s*([-+]?[\d.eE+-]+)")
+_FLOAT = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+_MEAN_AND_INTERVAL = re.compile(rf"^\s*({_FLOAT})\s*±\s*({_FLOAT})\s*$")
 
 SCRIPT = """
 function sortBy(th) {
@@ -104,14 +106,24 @@ def interval_columns(table: pd.DataFrame) -> list[str]:
     found = []
     for column in table.columns:
         cells = table[column].astype(str)
-        if len(cells) and cells.map(lambda c: bool(_NUMBER.match(c))).mean() > 0.5:
+        if len(cells) and cells.map(lambda c: bool(_MEAN_AND_INTERVAL.match(c))).mean() > 0.5:
             found.append(column)
     return found
 
 
+def _finite(values) -> list[float | None]:
+    """Numbers for a figure: each value as a float, ``None`` (a gap) where it is not a finite
+    number."""
+    numbers = pd.to_numeric(pd.Series(values), errors="coerce").astype(float)
+    return [float(v) if math.isfinite(v) else None for v in numbers]
+
+
 def _mean_and_interval(cell: str) -> tuple[float | None, float | None]:
-    match = _NUMBER.match(str(cell))
-    return (float(match.group(1)), float(match.group(2))) if match else (None, None)
+    match = _MEAN_AND_INTERVAL.match(str(cell))
+    if not match:
+        return None, None
+    mean, interval = float(match.group(1)), float(match.group(2))
+    return (mean if math.isfinite(mean) else None), (interval if math.isfinite(interval) else None)
 
 
 def ranking_figure(table: pd.DataFrame) -> dict | None:
@@ -185,8 +197,8 @@ def position_figure(frame: pd.DataFrame) -> dict | None:
             "type": "scattergl",
             "mode": "lines",
             "name": column[: -len(suffix)],
-            "x": frame["position"].tolist(),
-            "y": [None if pd.isna(v) else float(v) for v in frame[column]],
+            "x": _finite(frame["position"]),
+            "y": _finite(frame[column]),
         }
         for column in columns
     ]
@@ -206,6 +218,9 @@ def delay_figure(frame: pd.DataFrame) -> dict | None:
         return None
     if "order" in frame.columns:
         frame = frame[frame["order"] == "ẋ"]
+    frame = frame.assign(
+        **{c: pd.to_numeric(frame[c], errors="coerce") for c in needed - {"method"}}
+    )
     frame = frame[frame["delay (ms)"] > 0]  # a log axis; a lead is not on the front
     traces = []
     for method, rows in frame.groupby("method", sort=False):
@@ -214,8 +229,8 @@ def delay_figure(frame: pd.DataFrame) -> dict | None:
                 "type": "scatter",
                 "mode": "markers",
                 "name": method,
-                "x": rows["delay (ms)"].astype(float).tolist(),
-                "y": rows["RMSE delay-compensated"].astype(float).tolist(),
+                "x": _finite(rows["delay (ms)"]),
+                "y": _finite(rows["RMSE delay-compensated"]),
                 "text": rows.get("setting", pd.Series([""] * len(rows))).astype(str).tolist(),
             }
         )
@@ -246,12 +261,14 @@ def _table_html(table: pd.DataFrame, table_id: str) -> str:
 
 
 def _figure_html(figure: dict, figure_id: str) -> str:
-    spec = json.dumps(figure, allow_nan=False, default=str)
+    # the figure once, as data; "</" escaped so that no text in it can close the script
+    spec = json.dumps(figure, allow_nan=False, default=str).replace("</", "<\\/")
     height = int(figure["layout"].get("height", 480))
     return (
         f'<div class="figure" id="{figure_id}" style="height: {height}px"></div>\n'
-        f"<script>Plotly.newPlot('{figure_id}', {spec}.data, {spec}.layout, "
-        "{responsive: true});</script>"
+        f"<script>(function () {{ const spec = {spec}; "
+        f"Plotly.newPlot('{figure_id}', spec.data, spec.layout, {{responsive: true}}); }})();"
+        "</script>"
     )
 
 
@@ -259,7 +276,6 @@ def explorer_page(folder: Path, title: str, assets: str = "assets") -> str:
     """The explorer page of one results ``folder`` (its Markdown tables and the CSVs the
     figures read), loading Plotly from ``assets`` (a path relative to the page)."""
     parts = []
-    count = 0
     extra = {
         "error_vs_position.csv": ("ẋ's error against position in the record", position_figure),
         "sweep.csv": ("ẋ's error against delay, every setting swept", delay_figure),
@@ -268,16 +284,16 @@ def explorer_page(folder: Path, title: str, assets: str = "assets") -> str:
         path = folder / name
         figure = build(pd.read_csv(path)) if path.exists() else None
         if figure is not None:
-            count += 1
             parts.append(f"<h2>{html.escape(heading)}</h2>")
-            parts.append(_figure_html(figure, f"figure-{count}"))
+            parts.append(_figure_html(figure, f"figure-{Path(name).stem}"))
+    count = 0
     for path in sorted(folder.glob("*.md")):
         for heading, table in markdown_tables(path.read_text(encoding="utf-8")):
             count += 1
             parts.append(f"<h2>{_heading(heading or path.stem)}</h2>")
             figure = ranking_figure(table)
-            if figure is not None:
-                parts.append(_figure_html(figure, f"figure-{count}"))
+            if figure is not None:  # named after its table: figure-of-table-N
+                parts.append(_figure_html(figure, f"figure-of-table-{count}"))
             parts.append(_table_html(table, f"table-{count}"))
     body = "\n".join(parts)
     return f"""<!DOCTYPE html>

@@ -46,9 +46,16 @@ def test_the_three_closest_at_most_each_once():
         (lambda: methods.get("jacobbi"), r"^unknown method 'jacobbi'; did you mean 'jacobi'"),
         (
             lambda: methods.get("jacobi", windw_s=0.1),
-            r"^unknown parameter\(s\) windw_s for method 'jacobi'; did you mean 'window_s'.*"
+            r"^unknown parameter\(s\) windw_s for method 'jacobi'; windw_s: did you mean "
+            r"'window_s'.*"
             r"\? valid: kappa, mu, q, window_s",
         ),
+        (
+            lambda: methods.get("jacobi", windw_s=0.1, qq=3),
+            r"^unknown parameter\(s\) qq, windw_s for method 'jacobi'; qq: did you mean 'q'\? "
+            r"windw_s: did you mean 'window_s'",
+        ),
+        (lambda: methods.get(123), r"^a method name must be a string, got 123$"),
         (
             lambda: methods.get("jacobi", rule="trapezod"),
             r"`rule` must be one of \{trapezoid, linear, least_squares\}, got 'trapezod'; "
@@ -102,6 +109,10 @@ def _cli(*args: str, cwd=None) -> subprocess.CompletedProcess:
             ["run", "paper-signl"],
             "diffbench: error: unknown task 'paper-signl'; did you mean 'paper-signal', "
             "'paper-signal-clean' or 'paper-signal-999ms'?",
+        ),
+        (
+            ["run", "paper-signal", "--methods", "nativ"],
+            "diffbench: error: --methods: unknown method or group 'nativ'; did you mean 'native'?",
         ),
         (
             ["tune", "jacobi", "paper-signal", "--criteria", "orcale"],

@@ -14,6 +14,7 @@ from diffbench.bench.report import explorer
 ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "results"
 CHROMIUM_ARGS = [
+    "--disable-dev-shm-usage",
     "--headless",
     "--no-sandbox",
     "--disable-gpu",
@@ -38,6 +39,25 @@ def test_markdown_tables_are_read_as_written():
     figure = explorer.ranking_figure(table)
     assert [trace["name"] for trace in figure["data"]] == ["a", "b"]  # a trace per method
     assert figure["data"][1]["x"] == [10.0] and figure["data"][1]["error_x"]["array"] == [1.0]
+    # a cell that is not "number ± number" is no point (a gap), never an error
+    odd = pd.DataFrame({"method": ["a", "b", "c"], "RMSE": ["1 ± 2-3", "2 ± 0.5", "3 ± 1"]})
+    assert explorer.ranking_figure(odd)["data"][0]["x"] == [None]
+
+
+def test_the_special_figures_take_non_finite_and_text_values_as_gaps():
+    frame = pd.DataFrame(
+        {
+            "method": ["a", "a", "b"],
+            "order": ["ẋ", "ẋ", "ẋ"],
+            "delay (ms)": ["1.5", "—", "2"],
+            "RMSE delay-compensated": [float("inf"), 3.0, 4.0],
+        }
+    )
+    figure = explorer.delay_figure(frame)
+    assert [t["x"] for t in figure["data"]] == [[1.5], [2.0]]  # the text delay left out
+    assert figure["data"][0]["y"] == [None]  # inf: a gap
+    page = explorer._figure_html(figure, "f")  # and the page's JSON takes it
+    assert "Infinity" not in page and "NaN" not in page
 
 
 def test_a_page_holds_every_table_of_the_folder_and_loads_plotly_from_its_assets():
@@ -91,7 +111,7 @@ def test_the_explorer_sorts_filters_toggles_and_draws_in_a_real_browser(tmp_path
         assert shown.count() == sum("kalman" in " ".join(row) for row in rmse.values.tolist())
         assert all("kalman" in text for text in shown.all_inner_texts())
         # the legend toggles a method's trace in the ranking figure above the rmse table
-        figure = f"figure-{index}"
+        figure = f"figure-of-table-{index}"
         name = page.locator("text.legendtext", has_text=re.compile(r"^kalman$"))
         item = page.locator(f"#{figure} g.traces", has=name)
         item.locator("rect.legendtoggle").click()  # what a click on the legend lands on

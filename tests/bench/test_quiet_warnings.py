@@ -108,6 +108,7 @@ def test_without_third_party_warnings_there_is_no_log_and_diffbench_s_own_still_
         "--out",
         str(out),
     )
+    assert result.returncode == 0, result.stderr
     assert "diffbench: warning:" in result.stderr
     assert not (out / LOG).exists()
     assert "from other packages" not in result.stderr

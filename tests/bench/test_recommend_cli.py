@@ -157,6 +157,9 @@ def test_recommend_causal_ranks_the_causal_methods_as_they_run_online(tmp_path, 
         (["--time", "t", "--column", "q"], "no column 'q'"),
         ([], "give the time column (--time NAME) or the step (--dt SECONDS)"),
         (["--time", "t", "--methods", "nonsense"], "--methods: unknown method 'nonsense'"),
+        (["--time", "t", "--methods", "casual"], "unknown method or group 'casual'; did you "),
+        # refused before any tuning: the jittered record cannot go to a causal method
+        (["--time", "t", "--causal"], "has irregular time stamps; the causal methods take"),
     ],
 )
 def test_bad_usage_is_one_line_and_exit_code_2(user_csv, capsys, argv, message):
