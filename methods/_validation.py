@@ -28,6 +28,24 @@ def did_you_mean(name: object, choices: Iterable[str], limit: int = 3) -> str:
     ``name`` (at most ``limit``, best first; similarity at least :data:`CLOSE_MATCH_RATIO`,
     case ignored; a choice that differs only in case, alone); ``""`` when none is close.
 
+    Parameters
+    ----------
+    name : object
+        What the user typed (anything that is not a string gets ``""``).
+    choices : iterable of str
+        The valid names.
+    limit : int
+        The most names offered.
+
+    Returns
+    -------
+    str
+        The sentence to append to an error message, or ``""``.
+
+    References
+    ----------
+    Python's :func:`difflib.get_close_matches` (Ratcliff–Obershelp similarity).
+
     Examples
     --------
     >>> did_you_mean("jacobbi", ["jacobi", "kalman", "causal_jacobi"])

@@ -238,7 +238,22 @@ def regrets(rows: pd.DataFrame, order: int, region: str) -> pd.DataFrame:
         {\min_{m'} \min_\theta \overline{\mathrm{RMSE}}_k(m', \theta)} \ge 1
 
     (1 for the task's winner): how much worse than the best a method is on task k.
-    ``region`` as in :func:`winners`."""
+
+    Parameters
+    ----------
+    rows : pandas.DataFrame
+        The grid's scored rows (the store's cells frame).
+    order : int
+        The derivative order (1 or 2).
+    region : {"interior", "valid"}
+        As in :func:`winners`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per task and method: ``noise``, ``level``, ``step_ms``, ``task``, ``method``,
+        ``rmse`` (its best setting's mean) and ``ratio``.
+    """
     if region == "valid":
         rows = tables.covering_whole(rows, order, keys=("method", "params"), region="valid")
     tuned_for = (rows["tuned_order"] == order).fillna(False).astype(bool)
@@ -266,10 +281,28 @@ def regrets(rows: pd.DataFrame, order: int, region: str) -> pd.DataFrame:
 
 
 def which_method(rows: pd.DataFrame) -> pd.DataFrame:
-    """Per noise kind of the grid, derivative order and region: the method whose worst
+    r"""Per noise kind of the grid, derivative order and region: the method whose worst
     :func:`regrets` ratio over that kind's tasks (every level and step) is least, among the
     methods scored on all of them, with its median ratio and its wins, and the runner-up by
-    the same rule: the one choice that is never far from the best on such records."""
+    the same rule: the one choice that is never far from the best on such records,
+
+    .. math:: m^* = \arg\min_m \max_k \rho_{m,k}
+
+    over the kind's tasks k (:func:`regrets`), ties broken by the median ratio.
+
+    Parameters
+    ----------
+    rows : pandas.DataFrame
+        The grid's scored rows.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per noise kind, order and region: ``method``, ``worst_ratio``,
+        ``median_ratio``, ``wins``, ``runner_up``, ``runner_up_worst_ratio``, the number of
+        ``tasks`` and of ``methods`` compared, and whether the kind's samples are
+        ``irregular``.
+    """
     records = []
     for order in (1, 2):
         for region, label in REGION_COLUMNS.items():
