@@ -92,6 +92,28 @@ def _tuned_jobs(found: Mapping[TuningJob, dict]) -> list[TuningJob]:
     return [job for job, record in found.items() if record["params"]]
 
 
+def scored_rmse(rows: pd.DataFrame, order: int, region: str) -> pd.DataFrame:
+    """The RMSE rows of the derivative of ``order`` on ``region`` of the entries tuned for it:
+    what :func:`winners`, :func:`regrets` and :func:`causal_price` compare. On ``"valid"`` (the
+    whole record) only the entries covering it (``WHOLE_COVERAGE["valid"]``,
+    :mod:`diffbench.bench.report.tables`) on every seed."""
+    if region == "valid":
+        rows = tables.covering_whole(rows, order, keys=("method", "params"), region="valid")
+    tuned_for = (rows["tuned_order"] == order).fillna(False).astype(bool)
+    return rows[
+        tuned_for
+        & (rows["metric"] == "rmse")
+        & (rows["order"] == order)
+        & (rows["region"] == region)
+    ]
+
+
+def noiseless(scenario) -> bool:
+    """Whether every disturbance of ``scenario``'s noise aliases away at its step (200 Hz
+    sampled every 10 ms): nothing to rank there."""
+    return len(vanishing_disturbances(scenario)) == len(scenario.noise.models)
+
+
 def winners(rows: pd.DataFrame, order: int = 2, region: str = "interior") -> pd.DataFrame:
     """Per grid task: the entry with the least mean RMSE of the derivative of ``order`` on
     ``region`` (among those tuned for it), the runner-up, the paired t-test between them and the
@@ -105,8 +127,7 @@ def winners(rows: pd.DataFrame, order: int = 2, region: str = "interior") -> pd.
     """
     if region not in ("interior", "valid"):
         raise ValueError(f"`region` must be 'interior' or 'valid', got {region!r}")
-    if region == "valid":
-        rows = tables.covering_whole(rows, order, keys=("method", "params"), region="valid")
+    scored = scored_rmse(rows, order, region)
     records = []
     for kind, level, step, name in _grid_tasks():
         record = {
@@ -124,15 +145,8 @@ def winners(rows: pd.DataFrame, order: int = 2, region: str = "interior") -> pd.
         scenario = signals.get_scenario(name)
         vanishing = vanishing_disturbances(scenario)
         record["vanishing"] = "; ".join(vanishing)
-        record["noiseless"] = len(vanishing) == len(scenario.noise.models)
-        tuned_for = (rows["tuned_order"] == order).fillna(False).astype(bool)
-        mine = rows[
-            (rows["task"] == name)
-            & tuned_for
-            & (rows["metric"] == "rmse")
-            & (rows["order"] == order)
-            & (rows["region"] == region)
-        ]
+        record["noiseless"] = noiseless(scenario)
+        mine = scored[scored["task"] == name]
         if not mine.empty:
             table = ranking(mine, "rmse", order, region, keys=("method", "params"))
             best = table.iloc[0]
@@ -195,13 +209,7 @@ def causal_price(rows: pd.DataFrame, order: int) -> pd.DataFrame:
     RMSE of the derivative of ``order`` over the seeds, among the entries tuned for it), the
     best offline one, and ``ratio`` = causal / offline: what estimating online costs. Empty
     when no causal method was run."""
-    tuned_for = (rows["tuned_order"] == order).fillna(False).astype(bool)
-    scored = rows[
-        tuned_for
-        & (rows["metric"] == "rmse")
-        & (rows["order"] == order)
-        & (rows["region"] == "interior")
-    ]
+    scored = scored_rmse(rows, order, "interior")
     means = scored.groupby(["task", "method", "params"], sort=True)["value"].mean().reset_index()
     causal = set(methods.available(causal=True))
     means["causal"] = means["method"].isin(causal)
@@ -254,22 +262,11 @@ def regrets(rows: pd.DataFrame, order: int, region: str) -> pd.DataFrame:
         One row per task and method: ``noise``, ``level``, ``step_ms``, ``task``, ``method``,
         ``rmse`` (its best setting's mean) and ``ratio``.
     """
-    if region == "valid":
-        rows = tables.covering_whole(rows, order, keys=("method", "params"), region="valid")
-    tuned_for = (rows["tuned_order"] == order).fillna(False).astype(bool)
-    scored = rows[
-        tuned_for
-        & (rows["metric"] == "rmse")
-        & (rows["order"] == order)
-        & (rows["region"] == region)
-    ]
+    scored = scored_rmse(rows, order, region)
     records = []
     for kind, level, step, name in _grid_tasks():
-        if name is None:
-            continue
-        scenario = signals.get_scenario(name)
-        if len(vanishing_disturbances(scenario)) == len(scenario.noise.models):
-            continue  # no noise left at this step: nothing to choose between
+        if name is None or noiseless(signals.get_scenario(name)):
+            continue  # not run at this step, or no noise left: nothing to choose between
         mine = scored[scored["task"] == name]
         if mine.empty:
             continue

@@ -42,20 +42,9 @@ def _run(tmp_path: Path, *args: str) -> subprocess.CompletedProcess:
 def test_a_third_party_warning_goes_to_the_log_and_the_run_says_where(tmp_path, jobs):
     out = tmp_path / "out"
     methods = "noisy.finite_difference,finite_difference"
-    result = _run(
-        tmp_path,
-        "run",
-        "paper-signal",
-        "--methods",
-        methods,
-        "--seeds",
-        "2",
-        "--jobs",
-        jobs,
-        "--out",
-        str(out),
-        "--no-progress",
-    )
+    command = ["run", "paper-signal", "--methods", methods, "--seeds", "2", "--jobs", jobs]
+    command += ["--out", str(out), "--no-progress"]
+    result = _run(tmp_path, *command)
     assert result.returncode == 0, result.stderr
     assert "remark nobody asked for" not in result.stderr
     lines = (out / LOG).read_text().splitlines()
@@ -73,20 +62,7 @@ def test_a_third_party_warning_goes_to_the_log_and_the_run_says_where(tmp_path, 
         f"diffbench: {len(lines)} warning{plural} from other packages in {out / LOG}"
     )
     # a rerun computes nothing, warns of nothing and says nothing about the log
-    again = _run(
-        tmp_path,
-        "run",
-        "paper-signal",
-        "--methods",
-        methods,
-        "--seeds",
-        "2",
-        "--jobs",
-        jobs,
-        "--out",
-        str(out),
-        "--no-progress",
-    )
+    again = _run(tmp_path, *command)
     assert again.returncode == 0 and "from other packages" not in again.stderr
     assert len((out / LOG).read_text().splitlines()) == len(lines)
 
