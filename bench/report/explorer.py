@@ -137,44 +137,35 @@ def ranking_figure(table: pd.DataFrame) -> dict | None:
         " · ".join(str(row[c]) for c in ("method", "setting", "role") if c in table.columns)
         for _, row in table.iterrows()
     ]
-    traces = []
-    for method in dict.fromkeys(table["method"]):
-        rows = [i for i, m in enumerate(table["method"]) if m == method]
-        traces.append(
-            {
-                "type": "scatter",
-                "mode": "markers",
-                "name": method,
-                "y": [labels[i] for i in rows],
-                "x": [_mean_and_interval(table[columns[0]].iloc[i])[0] for i in rows],
-                "error_x": {
-                    "type": "data",
-                    "array": [_mean_and_interval(table[columns[0]].iloc[i])[1] for i in rows],
-                },
-            }
-        )
+    rows_of = {}  # each method's rows, in the table's order: one trace each
+    for i, method in enumerate(table["method"]):
+        rows_of.setdefault(method, []).append(i)
+    parsed = {column: [_mean_and_interval(cell) for cell in table[column]] for column in columns}
+
+    def points(column: str, rows: list[int]) -> dict:
+        """A trace's means and intervals in ``column``."""
+        cells = [parsed[column][i] for i in rows]
+        return {
+            "x": [c[0] for c in cells],
+            "error_x": {"type": "data", "array": [c[1] for c in cells]},
+        }
+
+    traces = [
+        {
+            "type": "scatter",
+            "mode": "markers",
+            "name": method,
+            "y": [labels[i] for i in rows],
+            **points(columns[0], rows),
+        }
+        for method, rows in rows_of.items()
+    ]
     buttons = []
     for column in columns:
-        cells = [_mean_and_interval(cell) for cell in table[column]]
-        values = [
-            [cells[i] for i, m in enumerate(table["method"]) if m == trace["name"]]
-            for trace in traces
-        ]
-        buttons.append(
-            {
-                "label": column,
-                "method": "update",
-                "args": [
-                    {
-                        "x": [[v[0] for v in per] for per in values],
-                        "error_x": [
-                            {"type": "data", "array": [v[1] for v in per]} for per in values
-                        ],
-                    },
-                    {"xaxis": {"title": {"text": column}, "type": "log"}},
-                ],
-            }
-        )
+        shown = [points(column, rows) for rows in rows_of.values()]
+        restyle = {"x": [t["x"] for t in shown], "error_x": [t["error_x"] for t in shown]}
+        relayout = {"xaxis": {"title": {"text": column}, "type": "log"}}
+        buttons.append({"label": column, "method": "update", "args": [restyle, relayout]})
     layout = {
         "xaxis": {"title": {"text": columns[0]}, "type": "log"},
         "yaxis": {"automargin": True},
