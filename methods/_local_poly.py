@@ -263,6 +263,7 @@ def kernel_weighted_fit_at(
     degree: int,
     order: int,
     kernel,
+    centres_s: np.ndarray | None = None,
 ) -> np.ndarray:
     r"""Local polynomial regression with a kernel centred on each evaluation time: at each
     :math:`a` of ``at`` (indices into ``times``), the polynomial of ``degree`` fitted to the
@@ -281,13 +282,19 @@ def kernel_weighted_fit_at(
     Legendre basis of the offset over ``reach_s`` by QR, as :func:`local_polynomial_weights`.
     Returns the estimates at ``at`` (time on axis 0).
 
+    ``centres_s`` (one time per evaluation, optional) centres each window and its kernel
+    there instead of at :math:`t_a` (offsets :math:`t_j - c_a`), and the fitted polynomial is
+    differentiated at :math:`t_a - c_a`: the shifted windows of Mboup, Join & Fliess (2009) at
+    the actual time stamps, a window moved inside the record for a sample near its end.
+
     Raises ``ValueError`` naming ``t`` when a window holds fewer than ``degree + 1`` samples.
     """
     n = times.size
     flat = x.reshape(n, -1)
     out = np.empty((np.size(at), flat.shape[1]))
-    for rows, index, root, q, z in _kernel_fit_blocks(times, at, reach_s, degree, order, kernel):
-        # the estimate is e^T R^{-1} Q^T sqrt(w) x, with e the derivative's row at u = 0
+    blocks = _kernel_fit_blocks(times, at, reach_s, degree, order, kernel, centres_s)
+    for rows, index, root, q, z in blocks:
+        # the estimate is e^T R^{-1} Q^T sqrt(w) x, with e the derivative's row at the sample
         projected = np.swapaxes(q, 1, 2) @ (root[..., None] * flat[index])
         out[rows] = (np.swapaxes(z, 1, 2) @ projected)[:, 0]
     return out / reach_s**order
@@ -311,25 +318,30 @@ def kernel_weighted_weights_at(
     return weights[:, :n] / reach_s**order
 
 
-def _kernel_fit_blocks(times, at, reach_s, degree, order, kernel):
+def _kernel_fit_blocks(times, at, reach_s, degree, order, kernel, centres_s=None):
     """The QR factorisations of :func:`kernel_weighted_fit_at`, a block of evaluation times
     at a time: yields (rows of ``at``, the windows' sample indices, sqrt of their weights, Q,
-    and z = R^{-T} e), the windows padded to the widest with weight 0."""
+    and z = R^{-T} e), the windows padded to the widest with weight 0; windows and kernels
+    centred on ``centres_s`` when given (else on the evaluation times)."""
     n = times.size
     at = np.asarray(at, dtype=np.intp)
+    centres = times[at] if centres_s is None else np.asarray(centres_s, dtype=np.float64)
     spans = sample_spans(times)
     slack = 1e-9 * reach_s
-    first = np.searchsorted(times, times[at] - reach_s - slack, side="left")
-    last = np.searchsorted(times, times[at] + reach_s + slack, side="right")
+    first = np.searchsorted(times, centres - reach_s - slack, side="left")
+    last = np.searchsorted(times, centres + reach_s + slack, side="right")
     counts = last - first
     if at.size and counts.min() < degree + 1:
         worst = int(np.argmin(counts))
         raise ValueError(
             f"`t` has {counts[worst]} samples within {reach_s!r} s of "
-            f"t={float(times[at[worst]])!r} s; a local polynomial of degree {degree} needs "
+            f"t={float(centres[worst])!r} s; a local polynomial of degree {degree} needs "
             f"{degree + 1}: use a wider kernel"
         )
-    evaluate = _derivative_rows_at(0.0, degree, order)[0]  # d^n/du^n of P_0..P_d at u = 0
+    if centres_s is None:  # d^n/du^n of P_0..P_d at u = 0, the same row for every window
+        evaluate = _derivative_rows_at(0.0, degree, order)[0]
+    else:  # at each sample's own offset from its window's centre
+        evaluate = _derivative_rows(np.clip((times[at] - centres) / reach_s, -1, 1), degree, order)
     width = int(counts.max()) if at.size else 0
     chunk = max(1, KERNEL_FIT_CHUNK_ELEMENTS // max(1, width * (degree + 1)))
     offsets_in_window = np.arange(width)
@@ -338,12 +350,15 @@ def _kernel_fit_blocks(times, at, reach_s, degree, order, kernel):
         # each window's samples, padded to the widest with weight 0 (rows of zeros change no fit)
         index = np.minimum(first[rows, None] + offsets_in_window, n - 1)
         inside = offsets_in_window < counts[rows, None]
-        offsets = times[index] - times[at[rows], None]
+        offsets = times[index] - centres[rows, None]
         weight = np.where(inside, kernel(offsets) * spans[index], 0.0)
         root = np.sqrt(weight)
         u = np.clip(offsets / reach_s, -1.0, 1.0)
         q, r = np.linalg.qr(legendre.legvander(u, degree) * root[..., None])
-        z = np.linalg.solve(np.swapaxes(r, 1, 2), np.broadcast_to(evaluate, r.shape[:2])[..., None])
+        rows_evaluated = evaluate if evaluate.ndim == 1 else evaluate[rows]
+        z = np.linalg.solve(
+            np.swapaxes(r, 1, 2), np.broadcast_to(rows_evaluated, r.shape[:2])[..., None]
+        )
         yield rows, index, root, q, z
 
 

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 
 import numpy as np
 
+from diffbench.methods._ends import trusted_times
 from diffbench.methods._fir import apply_central_firs
 from diffbench.methods._local_poly import (
     apply_fir_with_ends,
@@ -84,6 +86,17 @@ class Jacobi(FirMethod):
     ``least_squares`` rule (at the ends of ``"boundary"``, of ``end_degree``); the
     ``trapezoid`` and ``linear`` rules approximate the continuous filter (O(Ts²) for
     ``linear``; far better for ``trapezoid`` when min(κ, μ) ≥ 2).
+
+    Time stamps (``t=``) are handled natively, whatever the rule: at each sample the weighted
+    least-squares polynomial on the actual stamps within half a window, each weighted by
+    :math:`(1-\tau_j)^{\mu}(1+\tau_j)^{\kappa}` times the span of time it stands for (the
+    ``least_squares`` rule on the stamps,
+    :func:`~diffbench.methods._local_poly.kernel_weighted_fit_at`), the ends as ``ends`` says
+    (the window cut by the record, moved inside it, or none), trusted over the spans of time
+    the uniform grid nearest the mean step trusts. The windows need not be whole numbers of
+    steps there. Measured on the paper's 4, 9, 15 Hz signal at 5 ms with 30 % of the samples
+    dropped (κ = μ = 8, q = 10, 0.25 s, noise 0.01, 10 seeds, interior RMSE): ẋ 1.29 and ẍ 95
+    natively against 1.94 and 143 resampled; with ±45 % jitter and no gap, 1-3 % better.
 
     Limits, measured (see :mod:`methods.jacobi_kernel`): κ, μ in [-0.999, 400] (beyond 400
     the kernel overflows; nearer -1 the quadratures lose accuracy, NaN from -1 + 1e-13); the
@@ -221,6 +234,7 @@ class Jacobi(FirMethod):
         ),
     }
     reference = "Liu et al. (2011); Guo et al., AIM 2015"
+    time_stamps = "native"
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -463,6 +477,63 @@ class Jacobi(FirMethod):
                 values[order] = apply_fir_with_ends(x, taps[order], ends, central[order][0])
             valid[order] = finite_samples(values[order])
         return values, valid
+
+    def _estimate_at(self, x, times, orders):
+        values, valid = {}, {}
+        mean = (times[-1] - times[0]) / (times.size - 1)
+        for order in orders:
+            name, window = self._window(order)
+            if times[-1] - times[0] < window:
+                raise ValueError(
+                    f"`t` spans {times[-1] - times[0]!r} s, shorter than `{name}`={window!r} s; "
+                    "use a shorter window or a longer record"
+                )
+            values[order] = self._fits_at(x, times, order, window / 2, mean)
+            if self.ends == "central":  # the ends not estimated: nothing else to mark
+                valid[order] = finite_samples(values[order])
+                continue
+            # the ends trusted over the spans of time the uniform grid nearest the mean step
+            # trusts (that order's window a whole even number of its steps)
+            grid_step = window / max(2, 2 * round(window / (2 * mean)))
+            alike = dataclasses.replace(self, window_s=window, accel_window_s=window)
+            trusted = trusted_times(alike, times, grid_step, (order,))[order]
+            valid[order] = trusted & finite_samples(values[order])
+        return values, valid
+
+    def _fits_at(self, x, times, order: int, reach_s: float, mean_step: float) -> np.ndarray:
+        """The estimates of ``order`` at irregular ``times`` (see :meth:`_estimate_at`)."""
+        n = times.size
+        flat = x.reshape(n, -1)
+        out = np.full(flat.shape, np.nan)
+        inside = (times - times[0] >= reach_s * (1 - 1e-9)) & (
+            times[-1] - times >= reach_s * (1 - 1e-9)
+        )
+        m = max(1, round(reach_s / mean_step))  # the half width in mean steps, for the degrees
+
+        def weight(offset_s):
+            return self._weight(offset_s / reach_s)
+
+        def fit(at, degree, centres_s=None):
+            if at.size:
+                out[at] = kernel_weighted_fit_at(
+                    flat, times, at, reach_s, int(degree), order, weight, centres_s
+                )
+
+        fit(np.flatnonzero(inside), self._fit_degree(order))
+        edge = np.flatnonzero(~inside)
+        if self.ends == "boundary":
+            # the degree rises with the distance to the nearest end, as on the uniform grid
+            distance = np.minimum(times[edge] - times[0], times[-1] - times[edge])
+            degrees = self._boundary_degrees(order, m)
+            steps = np.minimum(np.floor(distance / reach_s * m + 1e-9).astype(int), m - 1)
+            for degree in np.unique(degrees[steps]):
+                if degree >= order:  # else too few samples carry weight: no estimate
+                    fit(edge[degrees[steps] == degree], degree)
+        elif self.ends == "shifted":
+            centres = np.clip(times[edge], times[0] + reach_s, times[-1] - reach_s)
+            degree = min(self._fit_degree(order), self._carrying(m) - 1)
+            fit(edge, degree, centres)
+        return out.reshape(x.shape)
 
     def exact_degree(self, order: int) -> float | None:
         if self.rule != "least_squares":
