@@ -89,7 +89,7 @@ class Jacobi(FirMethod):
 
     Time stamps (``t=``) are handled natively, whatever the rule: at each sample the weighted
     least-squares polynomial on the actual stamps within half a window, each weighted by
-    :math:`(1-\tau_j)^{\mu}(1+\tau_j)^{\kappa}` times the span of time it stands for (the
+    :math:`(1-\\tau_j)^{\\mu}(1+\\tau_j)^{\\kappa}` times the span of time it stands for (the
     ``least_squares`` rule on the stamps,
     :func:`~diffbench.methods._local_poly.kernel_weighted_fit_at`), the ends as ``ends`` says
     (the window cut by the record, moved inside it, or none), trusted over the spans of time
