@@ -45,6 +45,13 @@ class Dimension:
 SMALL_INTEGER_RANGE = 4
 """Integer parameters with at most this many values are searched like choices, one by one."""
 
+DURATION_STEPS = 10
+"""A time-scale parameter (``kind="duration"``: a kernel's length scale) is searched up to at
+least this many steps: the declared ranges are set for records of 0.1-10 ms steps, and on a
+coarse record (PyNumDiff's test records: 31 samples, 0.1 s apart) their 0.2-0.3 s tops are
+2-3 steps, too short to smooth; the Gaussian process's best length scale on PyNumDiff's
+irregular f4 record is 6 steps. Records of steps up to 20-30 ms keep the declared range."""
+
 
 def search_space(name: str, dt: float, n_samples: int, region: str = "interior") -> list[Dimension]:
     """The dimensions searched for method ``name`` at step ``dt`` on ``n_samples`` samples, by
@@ -64,6 +71,8 @@ def search_space(name: str, dt: float, n_samples: int, region: str = "interior")
         low, high = float(spec.tune_low), float(spec.tune_high)
         if spec.kind == "frequency":
             high = min(high, 0.45 / dt)
+        if spec.kind == "duration":
+            high = max(high, DURATION_STEPS * dt)
         if spec.kind == "window":
             low, high = window_bounds(low, high, dt, n_samples)
         if low >= high:

@@ -299,6 +299,20 @@ def test_tuning_result_is_unchanged_by_last_bit_perturbations_of_the_data():
         assert nudged.params == first.params, seed
 
 
+def test_time_scales_are_searched_to_ten_steps_on_coarse_records():
+    """A kernel's length scale reaches at least ``DURATION_STEPS`` steps (PyNumDiff's 0.1 s
+    records); on records of 1-10 ms steps the declared range stands."""
+    from diffbench.bench.core.search_space import DURATION_STEPS
+
+    declared = {
+        spec.name: spec for spec in methods.params_of(methods.method_class("gaussian_process"))
+    }
+    for dt, high in ((1e-3, 0.3), (1e-2, 0.3), (0.1, DURATION_STEPS * 0.1)):
+        dimension = tuning.search_space("gaussian_process", dt, 31)[0]
+        assert dimension.name == "length_scale_s" and dimension.high == pytest.approx(high)
+        assert dimension.low == declared["length_scale_s"].tune_low
+
+
 def test_edge_treatments_are_tuned_on_the_whole_record_only():
     # spectral's extension and fit_degree change only the ends, which the interior does not see
     assert [d.name for d in tuning.search_space("spectral", 1e-3, 1001)] == ["cutoff_hz", "rolloff"]
