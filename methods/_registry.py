@@ -57,6 +57,10 @@ DEFAULT_WINDOW_GROWTH = 1.25
 """A window left at its class default that the method refuses at a step, once snapped to the
 step, grows by this factor (at least one step each side) until the method takes it."""
 
+DEFAULT_SHRINK = 0.8
+"""Windows and time scales left at their class defaults that a record is too short for shrink
+by this factor at a time until the method takes the record (:meth:`Method.at_record`)."""
+
 
 @dataclass(frozen=True)
 class Param:
@@ -284,7 +288,7 @@ class Method:
                 "uniform"
             )
         if self.time_stamps == "native":
-            adapted = self.at_step(step)
+            adapted = self.at_record(x.shape[0], step)
             adapted._check_longest(x.shape[0], step)
             values, valid = adapted._estimate_at(x, times, orders)
             return Estimate(values=values, valid=valid)
@@ -381,6 +385,57 @@ class Method:
                 grown = max(changes[name] + 1, math.ceil(DEFAULT_WINDOW_GROWTH * changes[name]))
                 changes[name] = min(grown, MAX_WINDOW_STEPS // 2)
 
+    def at_record(self, n_samples: int, dt: float) -> Method:
+        """This method as it runs on a record of ``n_samples`` at step ``dt``:
+        :meth:`at_step`, then, when the record is shorter than that needs (``min_samples``),
+        the windows and time scales (``kind="window"``, ``"duration"``) left at their class
+        defaults shrunk together by :data:`DEFAULT_SHRINK` at a time (a window to whole even
+        numbers of steps, at least two; a time scale to at least one step), and frequencies
+        (``kind="frequency"``: a cutoff whose periods the record must hold) raised by its
+        inverse, up to :data:`DEFAULT_NYQUIST_FRACTION` of Nyquist, until the method takes the
+        record, so that ``methods.get(name)`` runs on short records (16 samples of
+        a 10 ms logger). Values the caller or a preset set are never changed; where shrinking
+        finds nothing, the call gives its own error. ``method.at_record(n, dt).params()`` are
+        the values a call on that record uses."""
+        adapted = self.at_step(dt)
+        if not dataclasses.is_dataclass(self) or adapted._takes_record(n_samples, dt):
+            return adapted
+        shrinking = [
+            spec
+            for spec in params_of(type(self))
+            if spec.kind is not None and spec.name not in getattr(self, "_given", ())
+        ]
+        if not shrinking:
+            return adapted
+        scale, top = 1.0, DEFAULT_NYQUIST_FRACTION * 0.5 / dt
+        while True:
+            scale *= DEFAULT_SHRINK
+            values = {}
+            for spec in shrinking:
+                value = getattr(adapted, spec.name) * scale
+                if spec.kind == "window":
+                    values[spec.name] = _clean(2 * max(1, math.floor(value / (2 * dt))) * dt)
+                elif spec.kind == "frequency":
+                    values[spec.name] = min(getattr(adapted, spec.name) / scale, top)
+                else:
+                    values[spec.name] = max(value, dt)
+            try:
+                shrunk = dataclasses.replace(self, **values)
+            except ValueError:  # below a parameter's declared range
+                return adapted
+            if shrunk._takes_record(n_samples, dt):
+                return shrunk
+            exhausted = {"window": lambda v: v <= 2 * dt, "duration": lambda v: v <= dt}
+            if all(
+                exhausted.get(spec.kind, lambda v: v >= top)(values[spec.name])
+                for spec in shrinking
+            ):
+                return adapted
+
+    def _takes_record(self, n_samples: int, dt: float) -> bool:
+        """Whether the settings fit step ``dt`` and a record of ``n_samples``."""
+        return self._takes_step(dt) and self.min_samples(dt) <= n_samples
+
     def _takes_step(self, dt: float) -> bool:
         """Whether the settings fit step ``dt`` (``min_samples`` and ``check_step`` pass)."""
         try:
@@ -407,7 +462,7 @@ class Method:
     def _uniform(self, x, dt: float, orders, reads: tuple[int, int] | None = None) -> Estimate:
         orders = check_orders(orders)
         dt = check_dt(dt)
-        adapted = self.at_step(dt)
+        adapted = self.at_record(np.shape(x)[0], dt) if np.ndim(x) else self.at_step(dt)
         if adapted is not self:
             return adapted._uniform(x, dt, orders, reads)
         # the signal's length first: it is cheap, and check_step may build taps

@@ -286,6 +286,20 @@ class Jacobi(FirMethod):
             f"estimate extrapolates from one end), got {value!r}{or_q}"
         )
 
+    def at_record(self, n_samples: int, dt: float):
+        """:meth:`Method.at_record`; where the default windows cannot shrink to the record
+        under the default ``rule`` (too few samples to resolve the kernel: 16 samples of
+        10 ms), the same with ``rule="least_squares"``, which needs only n + q + 2 samples a
+        window and stays exact on polynomials of degree n + q."""
+        adapted = super().at_record(n_samples, dt)
+        given = getattr(self, "_given", frozenset())
+        if "rule" in given or adapted._takes_record(n_samples, dt):
+            return adapted
+        least_squares = type(self)(
+            **{name: getattr(self, name) for name in given}, rule="least_squares"
+        )
+        return least_squares.at_record(n_samples, dt)
+
     @property
     def time_symmetric(self) -> bool:  # type: ignore[override]
         """Reversing time flips odd derivatives only for a symmetric weight (κ = μ)."""

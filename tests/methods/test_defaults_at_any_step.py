@@ -115,3 +115,45 @@ def test_a_default_window_grows_until_the_rule_resolves_the_kernel():
     assert not takes(2 * dt, 2 * dt)  # the snapped windows alone do not do
     assert shortest <= adapted.window_s <= 2 * math.ceil(1.25 * shortest / 2 + 1) * dt
     assert adapted.window_s == adapted.accel_window_s  # equal defaults grow together
+
+
+# --- short records (issue 45 item 3): the defaults shrink to the record ----------------------
+SHORT = [(n, dt) for n in (16, 31, 64) for dt in (1e-3, 1e-2)]
+
+
+@pytest.mark.parametrize("name", [n for n in _registered() if _native(n)])
+def test_defaults_run_on_records_of_16_to_64_samples(name):
+    """Every native method at its defaults on 16, 31 and 64 samples of 1 ms and 10 ms: it
+    estimates (offline methods: every sample), and the values it used (``at_record``) are the
+    class defaults where the record holds them and shrunk windows and time scales, raised
+    frequencies where it does not. Exact truth: a line, which each reproduces at its trusted
+    samples to 1 % of its value and slope (not to rounding: Jacobi's trapezoid rule on short
+    windows and a Butterworth padding cut to the record are not exact on lines)."""
+    for n, dt in SHORT:
+        t = np.arange(n) * dt
+        x = 0.5 - 2.0 * t
+        method = methods.get(name)
+        estimate = method(x, dt)
+        used = method.at_record(n, dt)
+        assert used._takes_record(n, dt)
+        defaults = method.at_step(dt).params()
+        for spec in methods.params_of(type(method)):
+            value, default = used.params()[spec.name], defaults[spec.name]
+            if spec.kind in ("window", "duration"):
+                assert value <= default, (spec.name, n, dt)
+            elif spec.kind == "frequency":
+                assert value >= default, (spec.name, n, dt)
+            elif spec.name != "rule":  # Jacobi's least-squares rule for short windows
+                assert value == default, (spec.name, n, dt)
+        for order, truth in ((0, x), (1, -2.0 + 0 * t)):
+            if not methods.method_class(name).causal:
+                assert estimate.estimated(order).all(), (order, n, dt)
+            valid = estimate.valid[order]
+            error = np.abs(estimate[order] - truth)[valid]
+            assert error.max(initial=0.0) <= 1e-2 * np.abs(truth).max(), (order, n, dt)
+
+
+def test_a_record_too_short_for_a_value_the_caller_set_is_still_refused():
+    with pytest.raises(ValueError, match="`x` has 16 samples on axis 0; at least 21"):
+        methods.get("jacobi", window_s=0.2)(np.zeros(16), 0.01)
+    assert methods.get("jacobi").at_record(16, 0.01).window_s < 0.16
