@@ -398,14 +398,14 @@ class Method:
         finds nothing, the call gives its own error. ``method.at_record(n, dt).params()`` are
         the values a call on that record uses."""
         adapted = self.at_step(dt)
-        if not dataclasses.is_dataclass(self) or adapted._takes_record(n_samples, dt):
+        if not dataclasses.is_dataclass(self):  # a Method subclass not (yet) registered
             return adapted
         shrinking = [
             spec
             for spec in params_of(type(self))
             if spec.kind is not None and spec.name not in getattr(self, "_given", ())
         ]
-        if not shrinking:
+        if not shrinking or adapted._takes_record(n_samples, dt):
             return adapted
         scale, top = 1.0, DEFAULT_NYQUIST_FRACTION * 0.5 / dt
         while True:

@@ -293,7 +293,9 @@ class Jacobi(FirMethod):
         window and stays exact on polynomials of degree n + q."""
         adapted = super().at_record(n_samples, dt)
         given = getattr(self, "_given", frozenset())
-        if "rule" in given or adapted._takes_record(n_samples, dt):
+        if given & {"rule", "window_s", "accel_window_s"} or adapted._takes_record(n_samples, dt):
+            return adapted
+        if not self.at_step(dt)._takes_step(dt):  # the rule fails at this step, not the record
             return adapted
         least_squares = type(self)(
             **{name: getattr(self, name) for name in given}, rule="least_squares"
