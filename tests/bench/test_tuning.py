@@ -313,6 +313,17 @@ def test_time_scales_are_searched_to_ten_steps_on_coarse_records():
         assert dimension.low == declared["length_scale_s"].tune_low
 
 
+def test_frequencies_are_searched_down_to_a_period_of_fifty_steps_on_coarse_records():
+    from diffbench.bench.core.search_space import FREQUENCY_PERIOD_STEPS
+
+    declared = methods.params_of(methods.method_class("kalman"))[0]
+    assert declared.name == "bandwidth_hz"
+    for dt, low in ((1e-3, 0.5), (4e-2, 0.5), (0.1, 1.0 / (FREQUENCY_PERIOD_STEPS * 0.1))):
+        dimension = tuning.search_space("kalman", dt, 31)[0]
+        assert dimension.name == "bandwidth_hz" and dimension.low == pytest.approx(low)
+        assert dimension.high == pytest.approx(min(declared.tune_high, 0.45 / dt))
+
+
 def test_edge_treatments_are_tuned_on_the_whole_record_only():
     # spectral's extension and fit_degree change only the ends, which the interior does not see
     assert [d.name for d in tuning.search_space("spectral", 1e-3, 1001)] == ["cutoff_hz", "rolloff"]
