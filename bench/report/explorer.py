@@ -5,11 +5,13 @@ A page holds, for each Markdown table the benchmark wrote in the folder, the tab
 (click a column's header to sort by it, numerically where its cells start with a number;
 type in the filter box to keep the rows holding that text) and, where the table has
 ``mean ± interval`` columns, the ranking with its intervals (a menu picks the column; clicking
-a method in the legend hides or shows it). Two figures read the CSVs beside the tables when
+a method in the legend hides or shows it). Figures read the CSVs beside the tables when
 they are there: the error against position in the record (``error_vs_position.csv``, one
-line per method) and the online error-against-delay front (``sweep.csv`` with its delay and
-delay-compensated RMSE). The figures are Plotly's (the ``plotly.min.js`` the page loads from
-``assets/``, written once beside the pages, offline).
+line per method), the online error-against-delay front (``sweep.csv`` with its delay and
+delay-compensated RMSE), and each method's error against the noise level and against the
+step over the grid (``errors.csv``, a menu picking the rest of the cell). The figures are
+Plotly's (the ``plotly.min.js`` the page loads from ``assets/``, written once beside the
+pages, offline).
 
 ``make docs`` writes a page per results folder into the site (``results/<folder>/explorer.html``,
 through :mod:`~diffbench.bench.report.docs_site`); :func:`write_explorer` writes one anywhere.
@@ -233,6 +235,60 @@ def delay_figure(frame: pd.DataFrame) -> dict | None:
     return {"data": traces, "layout": layout}
 
 
+GRID_AXES = {"level": "noise level", "step_ms": "sampling step (ms)"}
+"""The axes :func:`grid_errors_figure` plots the grid's errors against (its ``along``)."""
+
+
+def grid_errors_figure(frame: pd.DataFrame, along: str) -> dict | None:
+    """Each method's RMSE against the grid's noise level (``along="level"``) or step
+    (``"step_ms"``), one line per method (the legend toggles it), log scales; a menu picks
+    the rest of the grid cell: the noise kind, the other of level and step, the derivative
+    order and the region. From the grid study's ``errors.csv``; ``None`` for another table."""
+    needed = {"noise", "level", "step_ms", "method", "order", "region", "rmse"}
+    if along not in GRID_AXES or not needed <= set(frame.columns):
+        return None
+    other = "step_ms" if along == "level" else "level"
+    keys = ["noise", other, "order", "region"]
+    symbols = {1: "ẋ", 2: "ẍ"}
+    groups = list(frame.groupby(keys, sort=False))
+    methods_shown = sorted(set(frame["method"]))
+    traces, buttons = [], []
+    for index, (key, group) in enumerate(groups):
+        noise, fixed, order, region = key
+        fixed_text = f"{fixed:g} ms" if other == "step_ms" else f"level {fixed:g}"
+        label = f"{noise}, {fixed_text}, {symbols.get(order, order)}, {region}"
+        first = len(traces)
+        for method in methods_shown:
+            rows = group[group["method"] == method].sort_values(along)
+            if rows.empty:
+                continue
+            traces.append(
+                {
+                    "type": "scatter",
+                    "mode": "lines+markers",
+                    "name": method,
+                    "x": _finite(rows[along]),
+                    "y": _finite(rows["rmse"]),
+                    "visible": index == 0,
+                }
+            )
+        buttons.append({"label": label, "first": first, "last": len(traces)})
+    for button in buttons:
+        first, last = button.pop("first"), button.pop("last")
+        visible = [first <= i < last for i in range(len(traces))]
+        button.update({"method": "update", "args": [{"visible": visible}]})
+    if not traces:
+        return None
+    layout = {
+        "xaxis": {"title": {"text": GRID_AXES[along]}, "type": "log"},
+        "yaxis": {"title": {"text": "RMSE (mean over the scored seeds)"}, "type": "log"},
+        "height": 560,
+        "updatemenus": [{"buttons": buttons, "x": 1.0, "y": 1.15, "xanchor": "right"}],
+        "margin": {"t": 80},
+    }
+    return {"data": traces, "layout": layout}
+
+
 def _heading(text: str) -> str:
     """A Markdown heading as HTML: escaped, its `code` spans as <code>."""
     return re.sub(r"`([^`]*)`", r"<code>\1</code>", html.escape(text))
@@ -267,16 +323,19 @@ def explorer_page(folder: Path, title: str, assets: str = "assets") -> str:
     """The explorer page of one results ``folder`` (its Markdown tables and the CSVs the
     figures read), loading Plotly from ``assets`` (a path relative to the page)."""
     parts = []
-    extra = {
-        "error_vs_position.csv": ("ẋ's error against position in the record", position_figure),
-        "sweep.csv": ("ẋ's error against delay, every setting swept", delay_figure),
-    }
-    for name, (heading, build) in extra.items():
+    extra = [
+        ("error_vs_position.csv", "ẋ's error against position in the record", position_figure),
+        ("sweep.csv", "ẋ's error against delay, every setting swept", delay_figure),
+        ("errors.csv", "Each method's error against the noise level", grid_errors_figure, "level"),
+        ("errors.csv", "Each method's error against the step", grid_errors_figure, "step_ms"),
+    ]
+    for name, heading, build, *arguments in extra:
         path = folder / name
-        figure = build(pd.read_csv(path)) if path.exists() else None
+        figure = build(pd.read_csv(path), *arguments) if path.exists() else None
         if figure is not None:
+            figure_id = "-".join(["figure", Path(name).stem, *arguments]).replace("_", "-")
             parts.append(f"<h2>{html.escape(heading)}</h2>")
-            parts.append(_figure_html(figure, f"figure-{Path(name).stem}"))
+            parts.append(_figure_html(figure, figure_id))
     count = 0
     for path in sorted(folder.glob("*.md")):
         for heading, table in markdown_tables(path.read_text(encoding="utf-8")):

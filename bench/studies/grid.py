@@ -415,6 +415,28 @@ def write_causal_price(rows: pd.DataFrame, directory: Path) -> list[Path]:
     )
 
 
+def errors(rows: pd.DataFrame) -> pd.DataFrame:
+    """Every method's error on every grid task with noise left: :func:`regrets` for ẋ and ẍ,
+    on the interior and on the whole record (``region`` named as the reports name it), one
+    frame with an ``order`` column: what the explorer plots against the noise level and the
+    step, per method."""
+    parts = [
+        regrets(rows, order, region).assign(order=order, region=label)
+        for order in (1, 2)
+        for region, label in REGION_COLUMNS.items()
+    ]
+    parts = [part for part in parts if not part.empty]
+    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
+
+
+def write_errors(rows: pd.DataFrame, directory: Path) -> list[Path]:
+    """``errors.csv`` (:func:`errors`, full precision), read by the results explorer
+    (:mod:`diffbench.bench.report.explorer`); no Markdown twin: a table of every method on
+    every task is for a program or the explorer's filters, not for reading."""
+    table = errors(rows)
+    return [] if table.empty else [tables.write_csv(directory / "errors.csv", table)]
+
+
 def write_winners(rows: pd.DataFrame, directory: Path) -> list[Path]:
     """``winners_velocity`` and ``winners_acceleration`` (Markdown grid + full CSV): per task
     and step, the winner on the interior and on the whole record side by side; and
@@ -456,4 +478,9 @@ def write_winners(rows: pd.DataFrame, directory: Path) -> list[Path]:
             "the packages that computed them: " + packages_line(rows) + "."
         )
         written += tables.write_report(directory, stem, table, pd.DataFrame(shown), title, legend)
-    return written + write_which_method(rows, directory) + write_causal_price(rows, directory)
+    return (
+        written
+        + write_which_method(rows, directory)
+        + write_causal_price(rows, directory)
+        + write_errors(rows, directory)
+    )

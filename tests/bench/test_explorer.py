@@ -138,3 +138,52 @@ def test_the_special_figures_read_their_csv(folder):
         methods = [c for c in frame.columns if c.endswith("_velocity_rms_error")]
         assert len(figure["data"]) == len(methods)
         assert all(len(t["y"]) == len(frame) for t in figure["data"])
+
+
+@pytest.mark.parametrize("along", ["level", "step_ms"])
+def test_the_grid_figures_plot_each_methods_error_against_level_and_step(along):
+    """Every cell of the grid's ``errors.csv`` is a point, once: a menu entry per rest of the
+    cell (noise kind, the other axis, order, region) shows one line per method, whose points
+    are that method's rows, in order along the axis."""
+    frame = pd.read_csv(RESULTS / "studies" / "grid" / "errors.csv")
+    figure = explorer.grid_errors_figure(frame, along)
+    other = "step_ms" if along == "level" else "level"
+    combos = frame.groupby(["noise", other, "order", "region"], sort=False)
+    buttons = figure["layout"]["updatemenus"][0]["buttons"]
+    assert len(buttons) == combos.ngroups
+    assert sum(len(trace["x"]) for trace in figure["data"]) == len(frame)
+    for button, (_, group) in zip(buttons, combos, strict=True):
+        flags = button["args"][0]["visible"]
+        visible = [t for t, shown in zip(figure["data"], flags, strict=True) if shown]
+        assert sorted(t["name"] for t in visible) == sorted(set(group["method"]))
+        for trace in visible:
+            rows = group[group["method"] == trace["name"]].sort_values(along)
+            assert trace["x"] == rows[along].tolist() and trace["y"] == rows["rmse"].tolist()
+    first = [t["visible"] for t in figure["data"]]
+    assert first == buttons[0]["args"][0]["visible"]  # the page opens on the first entry
+
+
+def test_the_grid_explorer_switches_its_cell_in_a_real_browser(tmp_path):
+    sync_api, chromium = _browser()
+    folder = RESULTS / "studies" / "grid"
+    (page_path, _) = explorer.write_explorer(folder, tmp_path, "grid")
+    figure = explorer.grid_errors_figure(pd.read_csv(folder / "errors.csv"), "level")
+    buttons = figure["layout"]["updatemenus"][0]["buttons"]
+    first, second = (sum(b["args"][0]["visible"]) for b in buttons[:2])
+    with sync_api.sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=chromium, args=CHROMIUM_ARGS)
+        page = browser.new_page()
+        errors = []
+        page.on("pageerror", lambda error: errors.append(str(error)))
+        page.goto(page_path.as_uri())
+        page.wait_for_selector("#figure-errors-level .main-svg")
+        shown = (
+            "document.getElementById('figure-errors-level').data"
+            ".filter(t => t.visible === true).length"
+        )
+        assert page.evaluate(shown) == first
+        page.locator("#figure-errors-level .updatemenu-header-group").click()
+        page.locator("#figure-errors-level .updatemenu-dropdown-button").nth(1).click()
+        page.wait_for_function(f"{shown} === {second}", timeout=10_000)
+        assert errors == []
+        browser.close()

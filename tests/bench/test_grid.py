@@ -145,9 +145,17 @@ def test_aliased_disturbance_is_labelled_not_ranked(tmp_path):
         "winners_acceleration.csv",
         "which_method.md",
         "which_method.csv",
+        "errors.csv",
     ]
     choice = pd.read_csv(tmp_path / "which_method.csv")
     assert choice[["noise", "tasks", "method"]].values.tolist() == [["combined", 1, "a"]]
+    # the explorer's errors: both methods on the task with noise left (not the aliased one),
+    # the winner at ratio 1
+    errors = pd.read_csv(tmp_path / "errors.csv")
+    assert set(errors["task"]) == {"grid-combined-0.2-10ms"}
+    assert set(errors["method"]) == {"a", "b"} and set(errors["order"]) == {2}
+    assert errors.loc[errors["method"] == "a", "ratio"].eq(1.0).all()
+    assert (errors.loc[errors["method"] == "b", "ratio"] > 1.0).all()
 
 
 def test_irregular_sampling_rows_are_ranked_where_run_and_dashed_elsewhere(tmp_path):
