@@ -18,6 +18,10 @@ from diffbench.bench.report import docs_site
 ROOT = Path(__file__).resolve().parents[2]
 README = (ROOT / "README.md").read_text(encoding="utf-8")
 GENERATED = re.compile(r"<!-- generated: (\S+) -->\n(.*?)<!-- end generated -->\n", re.S)
+PAGES = sorted((ROOT / "docs").rglob("*.md"))
+"""The documentation's hand-written pages; the generated ones (the methods reference, the
+results pages) are added by the hook (bench/report/docs_site.py) to the built site only."""
+SNIPPET = re.compile(r"^[ \t]*-+8<-+[ \t]+\"([^\"]+)\"[ \t]*$", re.M)
 
 ALLOWED_NUMBERS = {
     "3.10",  # the Python the quick start needs
@@ -30,6 +34,18 @@ ALLOWED_NUMBERS = {
 }
 """Digit-bearing words the README's hand-written prose may hold: facts of the project, not
 results (every result is in a generated block)."""
+
+DOCS_ALLOWED_NUMBERS = ALLOWED_NUMBERS | {
+    "5/2",  # the Matérn processes' smoothness: their names
+    "7/2",
+    "1966",  # the years of the papers the pages cite: Gentleman & Sande; Burrus; Kim et al.
+    "1972",  # and Mboup, Join & Fliess; Khalil & Praly; Seeber
+    "2009",
+    "2014",
+    "2024",
+}
+"""Digit-bearing words the documentation's hand-written pages may hold beyond the README's:
+facts again; every result is included from a generated file (``--8<--``) or linked."""
 
 
 def _blocks(text: str, language: str) -> list[str]:
@@ -49,12 +65,71 @@ def test_the_readmes_generated_blocks_are_the_generated_files_tables():
         assert block == table, f"README's copy of {source} is stale: copy its table again"
 
 
+def _numbers_in_prose(text: str) -> set[str]:
+    """The digit-bearing words of a Markdown text's hand-written prose: outside generated
+    blocks, fenced and inline code (commands and code, not results), snippet lines (they
+    include generated files), HTML comments, link targets, image paths and URLs, and the
+    markers of ordered lists."""
+    prose = GENERATED.sub("", text)
+    prose = re.sub(r"^[ \t]*(`{3,}|~{3,}).*?^[ \t]*\1[ \t]*$", "", prose, flags=re.S | re.M)
+    prose = SNIPPET.sub("", prose)
+    prose = re.sub(r"<!--.*?-->", "", prose, flags=re.S)
+    prose = re.sub(r"`[^`\n]*`", "", prose)
+    prose = re.sub(r"^[ \t]*\d+\.[ \t]", "", prose, flags=re.M)  # an ordered list's markers
+    prose = re.sub(r"\]\([^()\s]*(?:\s+\"[^\"]*\")?\)", "]", prose)  # [text](target "title")
+    prose = re.sub(r"^[ \t]*\[[^\]]+\]:[ \t]*\S+.*$", "", prose, flags=re.M)  # [ref]: target
+    prose = re.sub(r"<?https?://[^\s>)]+>?", "", prose)
+    return {w.strip(".,;:()*[]!?\"'") for w in prose.split() if re.search(r"\d", w)}
+
+
 def test_no_result_is_typed_into_the_readmes_prose():
-    prose = GENERATED.sub("", README)
-    prose = re.sub(r"```.*?```\n", "", prose, flags=re.S)  # code: commands, not results
-    prose = re.sub(r"`[^`]*`", "", prose)
-    words = {w.strip(".,;:()*") for w in prose.split() if re.search(r"\d", w)}
+    words = _numbers_in_prose(README)
     assert words <= ALLOWED_NUMBERS, sorted(words - ALLOWED_NUMBERS)
+
+
+def test_the_docs_have_hand_written_pages_and_no_generated_ones():
+    names = {page.relative_to(ROOT / "docs").as_posix() for page in PAGES}
+    assert {"index.md", "findings.md", "methods.md"} <= names
+    # the hook adds these to the site: a copy under docs/ would be typed, and go stale
+    assert not any(name.startswith(("reference/methods", "results/")) for name in names)
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda page: page.relative_to(ROOT).as_posix())
+def test_no_result_is_typed_into_a_docs_page(page):
+    """Issue 46: a page shows a result by including the generated file (``--8<--``), its
+    figure, or a link to its results page, never by typing a number into its prose."""
+    words = _numbers_in_prose(page.read_text(encoding="utf-8"))
+    assert words <= DOCS_ALLOWED_NUMBERS, sorted(words - DOCS_ALLOWED_NUMBERS)
+
+
+def test_the_checker_finds_a_typed_result():
+    page = "The spectral method leads (RMSE 2.00 on the interior), see `rmse.md`.\n"
+    assert _numbers_in_prose(page) == {"2.00"}
+    exempt = (
+        '```sh\nmake bench SEEDS=5\n```\n--8<-- "results/paper-signal/rmse.md:3:"\n'
+        "<!-- 2.00 -->\n![errors](results/paper-signal/errors.png) at `dt=0.001`, "
+        "[issue](https://github.com/x/y/issues/46)\n"
+    )
+    assert _numbers_in_prose(exempt) == set()
+
+
+def test_the_docs_include_only_generated_files():
+    """A page's snippets are the benchmark's files under results/ (a hand-written snippet
+    could carry a typed number); one that skips lines skips exactly the file's title line
+    and the blank line after it (the page gives its own heading), so a table is never cut."""
+    texts = {page: page.read_text(encoding="utf-8") for page in PAGES}
+    for page, text in texts.items():  # every snippet in the one form the checks read
+        lines = [line for line in text.splitlines() if "-8<-" in line]
+        assert all(SNIPPET.fullmatch(line) for line in lines), (page.name, lines)
+    snippets = [(page, path) for page, text in texts.items() for path in SNIPPET.findall(text)]
+    assert snippets
+    for page, path in snippets:
+        name, _, lines = path.partition(":")
+        assert name.startswith("results/") and (ROOT / name).is_file(), (page.name, path)
+        if lines:
+            assert lines == "3:", (page.name, path)
+            head = (ROOT / name).read_text(encoding="utf-8").splitlines()
+            assert head[0].startswith("# ") and head[1] == "", (page.name, path)
 
 
 def test_the_readmes_python_runs_and_says_what_it_says():
@@ -127,14 +202,17 @@ def test_the_site_builds_strictly(tmp_path):
     mkdocs = shutil.which("mkdocs", path=str(Path(sys.executable).parent))
     if mkdocs is None:
         pytest.skip("mkdocs is not installed (pip install 'diffbench[docs]'; make docs does)")
+    # not --quiet: it drops MkDocs' warnings before strict mode counts them, so a broken link
+    # or anchor would pass
     result = subprocess.run(
-        [mkdocs, "build", "--strict", "--quiet", "--site-dir", str(tmp_path / "site")],
+        [mkdocs, "build", "--strict", "--site-dir", str(tmp_path / "site")],
         cwd=ROOT,
         capture_output=True,
         text=True,
         env={**os.environ, "NO_MKDOCS_2_WARNING": "1"},
     )
     assert result.returncode == 0, result.stderr
+    assert "WARNING" not in result.stderr, result.stderr
     grid = (tmp_path / "site" / "results" / "studies" / "grid" / "index.html").read_text()
     assert "Which differentiator on such records" in grid  # the study's tables, included
     home = (tmp_path / "site" / "index.html").read_text()
