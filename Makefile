@@ -100,7 +100,7 @@ timing: $(STAMP)
 # missing included file) fails it. Its methods reference and results pages are generated
 # (bench/report/docs_site.py), so it needs the installed package.
 docs: $(STAMP)
-	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
 
 # one formatting for the whole tree: ruff's, with no line exempted from it
 lint: $(STAMP)

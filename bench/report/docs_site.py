@@ -136,6 +136,61 @@ def results_index(root: Path) -> str:
     return "\n".join(lines) + "\n"
 
 
+try:  # MkDocs is needed only to build the site, not to generate its pages
+    from mkdocs.plugins import event_priority
+
+    _first = event_priority(100)
+except ImportError:  # pragma: no cover
+
+    def _first(function):
+        return function
+
+
+API_SOURCE = "build/api-source"
+"""Where :func:`on_config` lays out ``methods/``, ``signals/`` and ``bench/`` as the packages
+``diffbench.methods``, ``diffbench.signals`` and ``diffbench.bench`` (symbolic links), for
+mkdocstrings (``mkdocs.yml``: its python handler's ``paths``): griffe finds packages by their
+folders and cannot follow setuptools' editable ``package-dir`` mapping."""
+
+
+@_first
+def on_config(config):
+    """MkDocs hook: the layout griffe reads the API reference's docstrings from (before
+    mkdocstrings' own on_config, which resolves its paths)."""
+    root = Path(config.config_file_path).parent
+    package = root / API_SOURCE / "diffbench"
+    package.mkdir(parents=True, exist_ok=True)
+    for name in ("methods", "signals", "bench"):
+        link = package / name
+        if not link.is_symlink():
+            link.symlink_to(root / name, target_is_directory=True)
+    return config
+
+
+SPHINX_ROLE = re.compile(r":(?:func|class|meth|mod|data|attr|obj|math):<code>~?([^<]*)</code>")
+"""A Sphinx role the numpydoc docstrings use (``:func:`~x.y```) as mkdocstrings renders it:
+the role's name left as text before the code."""
+
+
+def on_page_content(html, page, config, files):
+    """MkDocs hook: the API reference's Sphinx roles (which mkdocstrings leaves as text
+    before their code) shown as the code alone, a ``~`` target by its last name, as Sphinx
+    shows them."""
+    if not page.file.src_uri.startswith("reference/api"):
+        return html
+
+    def plain(match):
+        target = match.group(1)
+        shown = (
+            target.rsplit(".", 1)[-1]
+            if match.group(0).split("<code>")[1].startswith("~")
+            else target
+        )
+        return f"<code>{shown}</code>"
+
+    return SPHINX_ROLE.sub(plain, html)
+
+
 def on_files(files, config):
     """MkDocs hook: add the generated pages and the results' figures to the site."""
     from mkdocs.structure.files import File

@@ -220,3 +220,9 @@ def test_the_site_builds_strictly(tmp_path):
     assert (tmp_path / "site" / "reference" / "methods.html").exists()  # opens from disk
     assert 'href="results/index.html"' in home
     assert (tmp_path / "site" / "results" / "paper-signal" / "errors.png").exists()
+    # the API reference, from the docstrings: every public name, no Sphinx role left as text
+    api = (tmp_path / "site" / "reference" / "api.html").read_text()
+    for name in ("methods.get", "methods.preset", "methods.register", "methods.Estimate"):
+        assert f'id="diffbench.{name}"' in api, name
+    assert 'id="diffbench.signals.get_scenario"' in api and 'id="diffbench.bench.api' in api
+    assert not docs_site.SPHINX_ROLE.search(api) and ":func:" not in api
