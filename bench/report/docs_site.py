@@ -5,7 +5,8 @@ Nothing in these pages is typed by hand:
 
 - ``reference/methods.md``: every registered method from the registry itself (its summary,
   whether it is causal, how it takes time stamps, each parameter's default, admissible range,
-  tuning range and meaning, each preset with its values and source, its reference);
+  tuning range and meaning, each preset with its values and source, its reference), and the
+  frequency response of each linear one (:func:`response_figure`);
 - ``results/<folder>/index.md``: one page per folder of committed results (``make bench``'s
   and ``make studies``'s), holding each of its Markdown tables and its figures as written.
 
@@ -15,8 +16,11 @@ generated file (``--8<--``, pymdown's snippets), so that a regeneration updates 
 
 from __future__ import annotations
 
+import io
 import re
 from pathlib import Path
+
+import numpy as np
 
 from diffbench import methods
 from diffbench.bench.report import explorer
@@ -40,8 +44,51 @@ def _cell(value) -> str:
     return str(value).replace("|", "\\|")
 
 
-def method_section(name: str) -> str:
-    """The reference section of method ``name``: summary, kind, parameters, presets."""
+RESPONSE_STEP_S = 1e-3
+"""The step the reference's frequency responses are drawn at (the paper signal's)."""
+
+
+def response_setting(name: str):
+    """The setting whose response the reference draws: the ``paper-signal`` preset where the
+    method has one, else its defaults (adapted to :data:`RESPONSE_STEP_S`)."""
+    cls = methods.method_class(name)
+    if "paper-signal" in cls.presets:
+        return methods.preset(name, "paper-signal"), "its paper-signal preset"
+    return methods.get(name).at_step(RESPONSE_STEP_S), "its defaults"
+
+
+def response_figure(name: str) -> bytes | None:
+    r"""PNG of method ``name``'s gain :math:`|H_n(f)|` for ẋ and ẍ at
+    :func:`response_setting`, step :data:`RESPONSE_STEP_S`, up to Nyquist, against the ideal
+    :math:`(2\pi f)^n` (``Method.frequency_response``, away from the ends); ``None`` for a
+    method that is not linear (no response)."""
+    from matplotlib.figure import Figure
+
+    cls = methods.method_class(name)
+    if not cls.linear:
+        return None
+    method, label = response_setting(name)
+    frequency = np.geomspace(0.1, 0.5 / RESPONSE_STEP_S, 400)
+    figure = Figure(figsize=(8, 3), layout="constrained")
+    for axes, order in zip(figure.subplots(1, 2), (1, 2), strict=True):
+        try:
+            gain = np.abs(method.frequency_response(frequency, RESPONSE_STEP_S, order))
+        except (NotImplementedError, ValueError):
+            return None
+        axes.loglog(frequency, gain, label=f"{name} ({label})")
+        axes.loglog(frequency, (2 * np.pi * frequency) ** order, "k--", lw=0.8, label="ideal")
+        axes.set_xlabel("frequency (Hz)")
+        axes.set_ylabel(f"|H| of {'ẋ' if order == 1 else 'ẍ'}")
+        axes.set_ylim(1e-3 * (2 * np.pi * 0.1) ** order, 10 * (np.pi / RESPONSE_STEP_S) ** order)
+    axes.legend(fontsize="small", loc="lower center")
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=80)
+    return buffer.getvalue()
+
+
+def method_section(name: str, response: bool = False) -> str:
+    """The reference section of method ``name``: summary, kind, parameters, presets (and its
+    frequency response's figure, ``response-<name>.png``, with ``response``)."""
     cls = methods.method_class(name)
     kind = "causal (online)" if cls.causal else "offline"
     lines = [
@@ -79,11 +126,20 @@ def method_section(name: str) -> str:
             row = (f"`{key}`", values, preset.by, preset.source)
             lines.append("| " + " | ".join(_cell(value) for value in row) + " |")
         lines.append("")
+    if response:
+        label = response_setting(name)[1]
+        lines += [
+            f"Gain of ẋ and ẍ at {label}, step {RESPONSE_STEP_S:g} s, away from the ends:",
+            "",
+            f"![frequency response of {name}](response-{name}.png)",
+            "",
+        ]
     return "\n".join(lines)
 
 
-def methods_reference() -> str:
-    """The methods reference page: every registered method (offline, then causal)."""
+def methods_reference(responses=frozenset()) -> str:
+    """The methods reference page: every registered method (offline, then causal), with
+    the frequency response of those in ``responses``."""
     names = methods.available(causal=False) + methods.available(causal=True)
     head = [
         "# Methods reference",
@@ -95,7 +151,7 @@ def methods_reference() -> str:
         "which only a loss on the whole record tunes).",
         "",
     ]
-    return "\n".join(head + [method_section(name) for name in names])
+    return "\n".join(head + [method_section(name, name in responses) for name in names])
 
 
 def results_folders(root: Path) -> list[Path]:
@@ -196,7 +252,14 @@ def on_files(files, config):
     from mkdocs.structure.files import File
 
     results = Path(config.config_file_path).parent / "results"  # beside mkdocs.yml
-    files.append(File.generated(config, "reference/methods.md", content=methods_reference()))
+    drawn = {}
+    for name in methods.available(causal=None):
+        figure = response_figure(name)
+        if figure is not None:
+            drawn[name] = figure
+            files.append(File.generated(config, f"reference/response-{name}.png", content=figure))
+    reference = methods_reference(frozenset(drawn))
+    files.append(File.generated(config, "reference/methods.md", content=reference))
     files.append(File.generated(config, "results/index.md", content=results_index(results)))
     script = f"assets/{explorer.PLOTLY_JS}"
     files.append(File.generated(config, script, content=explorer.plotly_js()))

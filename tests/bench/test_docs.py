@@ -184,6 +184,22 @@ def test_the_methods_reference_has_every_method_parameter_and_preset():
         assert ("causal (online)" in text) == cls.causal
 
 
+def test_the_methods_reference_draws_each_linear_methods_frequency_response():
+    """A PNG for every linear method (at its paper-signal preset, else its defaults), none
+    for a method without a response, and the section links the figure."""
+    for name in methods.available(causal=None):
+        figure = docs_site.response_figure(name)
+        linear = methods.method_class(name).linear
+        assert (figure is not None) == linear, name
+        if figure is not None:
+            assert figure.startswith(b"\x89PNG"), name
+    setting, label = docs_site.response_setting("jacobi")
+    assert setting == methods.preset("jacobi", "paper-signal") and "preset" in label
+    assert "![frequency response of spectral](response-spectral.png)" in (
+        docs_site.method_section("spectral", response=True)
+    )
+
+
 def test_each_results_folder_has_a_page_with_its_tables_and_figures():
     results = ROOT / "results"
     folders = docs_site.results_folders(results)
@@ -218,6 +234,11 @@ def test_the_site_builds_strictly(tmp_path):
     home = (tmp_path / "site" / "index.html").read_text()
     assert "spectral" in home and "median" in home  # the generated table, included
     assert (tmp_path / "site" / "reference" / "methods.html").exists()  # opens from disk
+    assert (tmp_path / "site" / "reference" / "response-jacobi.png").exists()
+    assert (
+        'src="response-jacobi.png"'
+        in (tmp_path / "site" / "reference" / "methods.html").read_text()
+    )
     assert 'href="results/index.html"' in home
     assert (tmp_path / "site" / "results" / "paper-signal" / "errors.png").exists()
     # the API reference, from the docstrings: every public name, no Sphinx role left as text
