@@ -24,6 +24,7 @@ import os
 import signal
 import threading
 import time
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
@@ -115,6 +116,25 @@ def _with_plugins(plugins: tuple[str, ...], function: Callable[[Any], Any], item
     return function(item)
 
 
+def _with_warnings_caught(function: Callable[[Any], Any], item: Any) -> tuple[Any, list]:
+    """``function(item)`` on a worker process, and the warnings it raised (message, category,
+    file, line), each one: the client raises them again (:func:`_raised_again`), so that
+    they reach its terminal or its warnings log (``bench.console``) rather than the worker's
+    log."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = function(item)
+    return result, [(str(w.message), w.category, w.filename, w.lineno) for w in caught]
+
+
+def _raised_again(returned: tuple[Any, list]) -> Any:
+    """The result of :func:`_with_warnings_caught`, its warnings raised here again."""
+    result, caught = returned
+    for message, category, filename, lineno in caught:
+        warnings.warn_explicit(message, category, filename, lineno)
+    return result
+
+
 def _dask_map(function, items, spec: DaskWorkers, ordered: bool):
     from dask.distributed import as_completed as dask_completed
 
@@ -122,16 +142,22 @@ def _dask_map(function, items, spec: DaskWorkers, ordered: bool):
         return
     if spec.plugins:
         function = functools.partial(_with_plugins, spec.plugins, function)
+    # workers in other processes keep their warnings in their own logs: bring them back
+    # (threads of this process show them here already; catching is not thread-safe)
+    elsewhere = spec.processes or spec.address is not None
+    if elsewhere:
+        function = functools.partial(_with_warnings_caught, function)
+    unwrap = _raised_again if elsewhere else (lambda returned: returned)
     with _dask_client(spec) as client:
         futures = client.map(function, list(items), pure=False)
         where = {future.key: item for future, item in zip(futures, items, strict=True)}
         try:
             if ordered:
                 for future in futures:
-                    yield future.result()
+                    yield unwrap(future.result())
             else:
                 for future in dask_completed(futures):
-                    yield where[future.key], future.result()
+                    yield where[future.key], unwrap(future.result())
         finally:
             client.cancel(futures)
 

@@ -121,3 +121,36 @@ def test_killing_the_client_mid_run_loses_nothing_and_the_rerun_completes(tmp_pa
     assert (out / "paper-signal" / "rmse.csv").read_text() == full
     keys = _rows(out / "store", "SELECT key FROM cells")
     assert len(keys) == len(set(keys)) == 90
+
+
+def _warns_like_scipy(value):
+    """A third-party warning (a category of another package, raised from its file)."""
+    import warnings
+
+    from scipy.signal import BadCoefficients
+
+    warnings.warn_explicit("Badly conditioned filter coefficients", BadCoefficients, "scipy.py", 7)
+    return -value
+
+
+def test_warnings_on_dask_worker_processes_reach_the_clients_log(tmp_path):
+    """Workers in other processes would keep third-party warnings in their own logs: each
+    comes back with its result and goes to the run's warnings log, one line each."""
+    from diffbench.bench import console
+
+    log = tmp_path / console.WARNINGS_LOG
+    console.route_third_party_warnings(log)
+    try:
+        import functools
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.showwarning = functools.partial(console.one_line_warning, warnings.showwarning)
+            warnings.simplefilter("always")
+            spec = DaskWorkers(workers=2)  # worker processes
+            found = list(executor.ordered_map(_warns_like_scipy, [1, 2, 3], spec))
+    finally:
+        console.route_third_party_warnings(None)
+    assert found == [-1, -2, -3]
+    lines = log.read_text().splitlines()
+    assert len(lines) == 3 and all("BadCoefficients: Badly conditioned" in li for li in lines)
