@@ -78,9 +78,34 @@ def check(spec: Workers) -> None:
                 pass
 
 
+_SHARED: dict[DaskWorkers, Any] = {}
+"""The clients :func:`dask_session` keeps open, by their specification."""
+
+
+@contextlib.contextmanager
+def dask_session(spec: Workers):
+    """Within it, every map on ``spec`` (a :class:`DaskWorkers`) uses one client and, for a
+    local cluster, one cluster, started on entry and closed on exit, instead of one each
+    (``recommend`` maps once per channel: a cluster each took seconds to start). Local
+    worker counts (ints) need nothing: it does nothing for them."""
+    if not isinstance(spec, DaskWorkers) or spec in _SHARED:
+        yield
+        return
+    with _dask_client(spec) as client:
+        _SHARED[spec] = client
+        try:
+            yield
+        finally:
+            del _SHARED[spec]
+
+
 @contextlib.contextmanager
 def _dask_client(spec: DaskWorkers):
-    """A client of ``spec``'s scheduler (a LocalCluster started here and closed after)."""
+    """A client of ``spec``'s scheduler (a LocalCluster started here and closed after), or
+    the one a :func:`dask_session` holds open."""
+    if spec in _SHARED:
+        yield _SHARED[spec]
+        return
     distributed = _distributed()
     Client, LocalCluster = distributed.Client, distributed.LocalCluster
     cluster = None

@@ -256,29 +256,30 @@ def recommend_record(
         grid, grid_step = methods.uniform_grid(record.t, record.dt_s)
         on_grid = methods.to_grid(record.x, record.t, grid)
     results = {}
-    for index, channel in enumerate(record.channels):
-        x = record.x[:, index]
-        uniform_x, step = (on_grid[:, index], grid_step) if irregular else (x, record.dt_s)
-        recommendation = recommend(
-            uniform_x,
-            step,
-            names,
-            tuple(orders),
-            seed,
-            max_evaluations,
-            jobs=jobs,
-            progress=progress,
-        )
-        estimates = {}
-        for order in orders:
-            name, params = recommendation.best(order)
-            stamps = record.t if irregular else None
-            method = methods.get(name, **params)
-            scale = recommendation.scale
-            estimates[order] = scaled_estimate(
-                method(x / scale, record.dt_s, (0, order), t=stamps), scale
+    with executor.dask_session(jobs):  # one Dask cluster for every channel, not one each
+        for index, channel in enumerate(record.channels):
+            x = record.x[:, index]
+            uniform_x, step = (on_grid[:, index], grid_step) if irregular else (x, record.dt_s)
+            recommendation = recommend(
+                uniform_x,
+                step,
+                names,
+                tuple(orders),
+                seed,
+                max_evaluations,
+                jobs=jobs,
+                progress=progress,
             )
-        results[channel] = (recommendation, estimates)
+            estimates = {}
+            for order in orders:
+                name, params = recommendation.best(order)
+                stamps = record.t if irregular else None
+                method = methods.get(name, **params)
+                scale = recommendation.scale
+                estimates[order] = scaled_estimate(
+                    method(x / scale, record.dt_s, (0, order), t=stamps), scale
+                )
+            results[channel] = (recommendation, estimates)
     return results
 
 

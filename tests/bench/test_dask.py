@@ -154,3 +154,23 @@ def test_warnings_on_dask_worker_processes_reach_the_clients_log(tmp_path):
     assert found == [-1, -2, -3]
     lines = log.read_text().splitlines()
     assert len(lines) == 3 and all("BadCoefficients: Badly conditioned" in li for li in lines)
+
+
+def test_a_dask_session_starts_one_cluster_for_every_map_within_it(monkeypatch):
+    """``recommend`` maps once per channel: within a session they share one local cluster."""
+    started = []
+
+    class Counted(distributed.LocalCluster):
+        def __init__(self, *args, **kwargs):
+            started.append(1)
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(distributed, "LocalCluster", Counted)
+    with executor.dask_session(IN_PROCESS):
+        assert list(executor.ordered_map(abs, [-1, -2], IN_PROCESS)) == [1, 2]
+        assert list(executor.ordered_map(abs, [-3], IN_PROCESS)) == [3]
+    assert len(started) == 1
+    assert list(executor.ordered_map(abs, [-4], IN_PROCESS)) == [4]  # after it: its own
+    assert len(started) == 2
+    with executor.dask_session(2):  # local processes: nothing to share
+        assert list(executor.ordered_map(abs, [-5], 2)) == [5]
