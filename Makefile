@@ -136,7 +136,7 @@ check-install:
 	$(PYTHON) -m venv $(CLASH_VENV)
 	$(CLASH_VENV)/bin/python -m pip install --quiet --upgrade pip
 	$(CLASH_VENV)/bin/python -m pip install --quiet 'bench==2.8' 'signals==0.0.2'
-	$(CLASH_VENV)/bin/python -m pip install --quiet -c constraints.txt '.[test,peers,data,dask]'
+	$(CLASH_VENV)/bin/python -m pip install --quiet -c constraints.txt '.[test,peers,data,dask,docs]'
 	$(CLASH_VENV)/bin/diffbench list > /dev/null
 	$(CLASH_VENV)/bin/python -c 'import diffbench.signals, signals; assert signals.__file__ != diffbench.signals.__file__'
 	$(CLASH_VENV)/bin/python -m pytest -q -n 2 --benchmark-disable -p no:cacheprovider \
