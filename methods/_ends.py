@@ -209,15 +209,15 @@ def _from_last_failure(passes: np.ndarray) -> np.ndarray:
 
 
 def trusted_times(
-    method, times: np.ndarray, step: float, orders: tuple[int, ...]
+    method, times: np.ndarray, step: float, orders: tuple[int, ...], **criterion
 ) -> dict[int, np.ndarray]:
     """Which of the irregular ``times`` to trust, per order, for a method whose end treatment
     reaches a fixed span of time: the trusted end samples found by :func:`trusted_samples` on
     the uniform record of step ``step`` and the same span, as times (the first and last
     trusted grid times), then every measured time between them (none, on a record too short
-    for any)."""
+    for any). ``criterion``: :func:`trusted_samples`' ``factor`` and ``short_record_middle``."""
     n_grid = round((times[-1] - times[0]) / step) + 1
-    trusted = trusted_samples(method, n_grid, step, orders)
+    trusted = trusted_samples(method, n_grid, step, orders, **criterion)
     result = {}
     for order in orders:
         kept = np.flatnonzero(trusted[order])

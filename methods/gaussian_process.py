@@ -759,6 +759,12 @@ class GaussianProcessMarginalLikelihood(Method):
     estimate to rounding rather than to the optimiser's tolerance. Each call costs
     the fit (about 0.08 s per channel at ``fit_samples`` = 400) plus the posterior mean.
 
+    Time stamps (``t=``): the hyperparameters are fitted on the record resampled to its grid
+    (the likelihood's layout needs uniform times), the posterior mean taken at the stamps
+    themselves (:func:`posterior_derivatives_at`). With 30 % of the samples dropped at 5 ms
+    (the paper's signal, noise 0.01, 10 seeds, interior) ẋ 0.66 and ẍ 93 against 1.47 and
+    184 resampled throughout; with ±45 % jitter 9-10 % better.
+
     Parameters
     ----------
     fit_samples : {200, 400, 800}
@@ -786,6 +792,10 @@ class GaussianProcessMarginalLikelihood(Method):
     }
     reference = "Rasmussen & Williams (2006)"
     linear = False
+    time_stamps = "native"
+
+    def _estimate_at(self, x, times, orders):
+        return _ml_estimate_at(self, x, times, orders)
 
     def min_samples(self, dt: float) -> int:
         return 3
@@ -827,6 +837,48 @@ class GaussianProcessMarginalLikelihood(Method):
                 )
         values = {order: value.reshape(x.shape) for order, value in values.items()}
         return values, valid
+
+
+def _ml_estimate_at(method, x, times, orders):
+    """:class:`GaussianProcessMarginalLikelihood` at irregular ``times``: each channel's
+    hyperparameters fitted as on the uniform path, on the channel resampled to the grid a
+    resampled method would use (the likelihood's sample layout needs uniform times), then the
+    posterior mean at the stamps themselves (:func:`posterior_derivatives_at`), its ends
+    trusted as the fitted ``gaussian_process``'s at the mean step."""
+    from diffbench.methods._time_stamps import to_grid, uniform_grid
+
+    n = times.size
+    columns = x.reshape(n, -1)
+    grid, grid_step = uniform_grid(times)
+    step = (times[-1] - times[0]) / (n - 1)
+    values = {order: np.empty_like(columns) for order in orders}
+    valid = {order: np.ones(n, dtype=bool) for order in orders}
+    for index in range(columns.shape[1]):
+        column = columns[:, index]
+        on_grid = to_grid(column, times, grid)
+        fitted = fit_hyperparameters(_canonical(on_grid), grid_step, method.fit_samples)
+        if fitted is None:  # a straight line: the least-squares line in time
+            centred = times - times.mean()
+            slope = float(centred @ (column - column.mean()) / (centred @ centred))
+            estimate = {0: column.mean() + slope * centred, 1: np.full(n, slope), 2: np.zeros(n)}
+        else:
+            length_scale_s = grid_step * snap_to_grid(fitted[0] / grid_step, 1.0, max(2.0, n - 1.0))
+            ratio = snap_to_grid(fitted[1], MIN_NOISE_RATIO, MAX_NOISE_RATIO)
+            estimate = posterior_derivatives_at(column, times, orders, length_scale_s, ratio)
+            at_fit = GaussianProcess(length_scale_s=length_scale_s, noise_ratio=ratio)
+            trusted = trusted_times(
+                at_fit,
+                times,
+                step,
+                orders,
+                factor=FITTED_END_ERROR_FACTOR,
+                short_record_middle=True,
+            )
+            for order in orders:
+                valid[order] &= trusted[order]
+        for order in orders:
+            values[order][:, index] = estimate[order]
+    return {order: value.reshape(x.shape) for order, value in values.items()}, valid
 
 
 def snap_to_grid(value: float, low: float, high: float, step: float = FIT_GRID) -> float:

@@ -98,3 +98,45 @@ def test_a_band_too_large_is_refused_naming_t():
     method = methods.get("gaussian_process", length_scale_s=0.05, noise_ratio=0.1)
     with pytest.raises(ValueError, match=r"`t` has 20000 samples with up to .* use a shorter"):
         method(np.sin(t), t=t)
+
+
+def test_the_ml_process_on_uniform_stamps_is_its_uniform_path():
+    """``gaussian_process_ml`` at stamps fits on the grid they lie on (here: themselves), so
+    on uniform stamps it is its uniform path: the same trusted samples, the same values within
+    the bound of the given-setting test at the fitted setting."""
+    from diffbench.methods import gaussian_process as gp
+
+    dt = 2e-3
+    t = np.arange(500) * dt
+    x = np.sin(2 * np.pi * 3 * t) + 0.05 * np.random.default_rng(4).standard_normal(t.size)
+    uniform = methods.get("gaussian_process_ml")(x, dt)
+    values, valid = methods.get("gaussian_process_ml")._estimate_at(x, t, (0, 1, 2))
+    length, ratio, _ = gp.fit_hyperparameters(gp._canonical(x), dt, 400)
+    length = dt * gp.snap_to_grid(length / dt, 1.0, max(2.0, t.size - 1.0))
+    ratio = gp.snap_to_grid(ratio, gp.MIN_NOISE_RATIO, gp.MAX_NOISE_RATIO)
+    for order in (0, 1, 2):
+        np.testing.assert_array_equal(valid[order], uniform.valid[order])
+        _, factor = dense_posterior(x, t, length, ratio, order)
+        bound = 10 * (SOLVER_TOLERANCE + EPS) * (factor + np.abs(uniform[order]).max())
+        assert bound < 1e-3 * np.abs(uniform[order]).max()  # ill-conditioned (ℓ long), can fail
+        np.testing.assert_allclose(values[order], uniform[order], rtol=0, atol=bound)
+
+
+@pytest.mark.parametrize("kind", ["jitter", "dropout"])
+def test_the_ml_process_at_stamps_is_the_given_process_at_the_fitted_setting(kind):
+    """At irregular stamps: the hyperparameters the likelihood picks on the record resampled
+    to its grid, then ``gaussian_process``'s native posterior at the stamps with them."""
+    from diffbench.methods import gaussian_process as gp
+    from diffbench.methods._time_stamps import to_grid, uniform_grid
+
+    t = stamps(400, 2e-3, kind, seed=11)
+    x = np.sin(2 * np.pi * 4 * t) + 0.02 * np.random.default_rng(6).standard_normal(t.size)
+    estimate = methods.get("gaussian_process_ml")(x, t=t)
+    grid, step = uniform_grid(t)
+    length, ratio, _ = gp.fit_hyperparameters(gp._canonical(to_grid(x, t, grid)), step, 400)
+    length = step * gp.snap_to_grid(length / step, 1.0, max(2.0, t.size - 1.0))
+    ratio = gp.snap_to_grid(ratio, gp.MIN_NOISE_RATIO, gp.MAX_NOISE_RATIO)
+    given = methods.get("gaussian_process", length_scale_s=length, noise_ratio=ratio)(x, t=t)
+    for order in (0, 1, 2):
+        np.testing.assert_array_equal(estimate[order], given[order])  # the same computation
+        assert estimate.valid[order].mean() > 0.5
