@@ -350,11 +350,7 @@ class Method:
         dt = check_dt(dt)
         if not dataclasses.is_dataclass(self):  # a Method subclass not (yet) registered
             return self
-        defaulted = [
-            spec
-            for spec in params_of(type(self))
-            if spec.kind is not None and spec.name not in getattr(self, "_given", ())
-        ]
+        defaulted = self._defaulted_kinds()
         if not defaulted or self._takes_step(dt):
             return self
         changes, windows = {}, []
@@ -400,14 +396,11 @@ class Method:
         adapted = self.at_step(dt)
         if not dataclasses.is_dataclass(self):  # a Method subclass not (yet) registered
             return adapted
-        shrinking = [
-            spec
-            for spec in params_of(type(self))
-            if spec.kind is not None and spec.name not in getattr(self, "_given", ())
-        ]
+        shrinking = self._defaulted_kinds()
         if not shrinking or adapted._takes_record(n_samples, dt):
             return adapted
         scale, top = 1.0, DEFAULT_NYQUIST_FRACTION * 0.5 / dt
+        exhausted = {"window": lambda v: v <= 2 * dt, "duration": lambda v: v <= dt}
         while True:
             scale *= DEFAULT_SHRINK
             values = {}
@@ -425,12 +418,20 @@ class Method:
                 return adapted
             if shrunk._takes_record(n_samples, dt):
                 return shrunk
-            exhausted = {"window": lambda v: v <= 2 * dt, "duration": lambda v: v <= dt}
             if all(
                 exhausted.get(spec.kind, lambda v: v >= top)(values[spec.name])
                 for spec in shrinking
             ):
                 return adapted
+
+    def _defaulted_kinds(self) -> list:
+        """The parameters with a ``kind`` (window, frequency, duration) left at their class
+        defaults: the ones :meth:`at_step` and :meth:`at_record` may adapt."""
+        return [
+            spec
+            for spec in params_of(type(self))
+            if spec.kind is not None and spec.name not in getattr(self, "_given", ())
+        ]
 
     def _takes_record(self, n_samples: int, dt: float) -> bool:
         """Whether the settings fit step ``dt`` and a record of ``n_samples``."""

@@ -9,7 +9,7 @@ import numpy as np
 from diffbench.methods._ends import trusted_times
 from diffbench.methods._local_poly import kernel_end_fits, kernel_weighted_fit_at
 from diffbench.methods._registry import FirMethod, Preset, param, register
-from diffbench.methods._validation import MAX_WINDOW_STEPS, finite_samples
+from diffbench.methods._validation import MAX_WINDOW_STEPS, finite_samples, mean_step
 
 TRUNCATE = 4.0
 """The taps reach ``TRUNCATE`` standard deviations each side (the Gaussian is 3.4e-4 of its
@@ -153,7 +153,7 @@ class GaussianKernel(FirMethod):
         return super()._estimate(x, dt, orders)
 
     def _estimate_at(self, x, times, orders):
-        step = (times[-1] - times[0]) / (times.size - 1)
+        step = mean_step(times)
         reach_s = self._half_width(step) * step  # the uniform grid's reach at the mean step
         everywhere = np.arange(times.size)
         values = {

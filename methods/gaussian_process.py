@@ -25,10 +25,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import fft as sp_fft
 from scipy import optimize
-from scipy.linalg import lapack
+from scipy.linalg import cho_solve_banded, cholesky_banded, lapack
 
 from diffbench.methods._ends import trusted_samples, trusted_times
 from diffbench.methods._registry import Method, Preset, param, register
+from diffbench.methods._time_stamps import to_grid, uniform_grid
+from diffbench.methods._validation import mean_step
 
 TRUNCATE = 9.0
 """The kernel and its derivatives are used up to ``TRUNCATE`` length scales each side: beyond,
@@ -341,6 +343,15 @@ def posterior_derivatives(
     return {order: value.reshape(x.shape) for order, value in results.items()}
 
 
+def _least_squares_line_at(columns: np.ndarray, times: np.ndarray):
+    """The least-squares line in time of each column of ``columns`` (n, channels) sampled at
+    ``times``: values (n, channels) and slopes (channels,)."""
+    centred = times - times.mean()
+    mean = columns.mean(axis=0)
+    slope = centred @ (columns - mean) / float(centred @ centred)
+    return mean + np.outer(centred, slope), slope
+
+
 BANDED_MAX_ENTRIES = 50_000_000
 """Most entries (400 MB) of the banded covariance :func:`posterior_derivatives_at` factors:
 samples times the most samples within ``TRUNCATE`` length scales before one."""
@@ -365,8 +376,6 @@ def posterior_derivatives_at(
 
     Reference: Rasmussen & Williams (2006), sec. 2.2 and 9.4.
     """
-    from scipy.linalg import cho_solve_banded, cholesky_banded
-
     n = times.size
     columns = x.reshape(n, -1)
     reach = TRUNCATE * length_scale_s
@@ -378,10 +387,7 @@ def posterior_derivatives_at(
             f"entries, more than {BANDED_MAX_ENTRIES}; use a shorter `length_scale_s` or split "
             "the record"
         )
-    centred = times - times.mean()
-    mean = columns.mean(axis=0)
-    slope = centred @ (columns - mean) / float(centred @ centred)
-    line = mean + np.outer(centred, slope)
+    line, slope = _least_squares_line_at(columns, times)
     lower = np.zeros((band + 1, n))  # lower[d, j] = K[j + d, j]
     for d in range(band + 1):
         lower[d, : n - d] = rbf_covariance(times[d:] - times[: n - d], length_scale_s, 0)
@@ -735,8 +741,7 @@ class GaussianProcess(Method):
     def _estimate_at(self, x, times, orders):
         values = posterior_derivatives_at(x, times, orders, self.length_scale_s, self.noise_ratio)
         # the ends trusted over the spans of time the uniform record of the mean step trusts
-        step = (times[-1] - times[0]) / (times.size - 1)
-        return values, trusted_times(self, times, step, orders)
+        return values, trusted_times(self, times, mean_step(times), orders)
 
 
 @register("gaussian_process_ml")
@@ -794,9 +799,6 @@ class GaussianProcessMarginalLikelihood(Method):
     linear = False
     time_stamps = "native"
 
-    def _estimate_at(self, x, times, orders):
-        return _ml_estimate_at(self, x, times, orders)
-
     def min_samples(self, dt: float) -> int:
         return 3
 
@@ -804,27 +806,74 @@ class GaussianProcessMarginalLikelihood(Method):
         return 1
 
     def _estimate(self, x, dt, orders):
+        def posterior(column, length_scale_s, ratio):
+            return posterior_derivatives(column, dt, orders, length_scale_s, ratio)
+
+        def line(column):
+            return _least_squares_line(column, dt)
+
+        def trusted(at_fit):
+            return trusted_samples(
+                at_fit, x.shape[0], dt, orders, FITTED_END_ERROR_FACTOR, short_record_middle=True
+            )
+
+        return self._fitted(x, orders, dt, lambda column: column, posterior, line, trusted)
+
+    def _estimate_at(self, x, times, orders):
+        """At irregular ``times``: each channel's hyperparameters fitted on the channel
+        resampled to the grid a resampled method would use (the likelihood's sample layout
+        needs uniform times), then the posterior mean at the stamps themselves
+        (:func:`posterior_derivatives_at`), its ends trusted as the fitted
+        ``gaussian_process``'s at the mean step."""
+        grid, grid_step = uniform_grid(times)
+
+        def posterior(column, length_scale_s, ratio):
+            return posterior_derivatives_at(column, times, orders, length_scale_s, ratio)
+
+        def line(column):
+            values, slope = _least_squares_line_at(column[:, None], times)
+            return values[:, 0], float(slope[0])
+
+        def trusted(at_fit):
+            return trusted_times(
+                at_fit,
+                times,
+                mean_step(times),
+                orders,
+                factor=FITTED_END_ERROR_FACTOR,
+                short_record_middle=True,
+            )
+
+        def on_grid(column):
+            return to_grid(column, times, grid)
+
+        return self._fitted(x, orders, grid_step, on_grid, posterior, line, trusted)
+
+    def _fitted(self, x, orders, fit_step, on_grid, posterior, line, trusted):
+        """The estimate of either path: per channel, the hyperparameters the likelihood picks
+        on ``on_grid(channel)`` (step ``fit_step``), snapped to the 1 % grid, then
+        ``posterior(channel, length_scale_s, noise_ratio)`` (or, for a straight line, ``line``:
+        its values and slope), valid where ``trusted(the fitted gaussian_process)`` says, for
+        every channel."""
         n = x.shape[0]
         columns = x.reshape(n, -1)
         values = {order: np.empty_like(columns) for order in orders}
         valid = {order: np.ones(n, dtype=bool) for order in orders}
         for index in range(columns.shape[1]):
             column = columns[:, index]
-            fitted = fit_hyperparameters(_canonical(column), dt, self.fit_samples)
+            fitted = fit_hyperparameters(_canonical(on_grid(column)), fit_step, self.fit_samples)
             if fitted is None:
-                line, slope = _least_squares_line(column, dt)
-                estimate = {0: line, 1: np.full(n, slope), 2: np.zeros(n)}
+                values_of_line, slope = line(column)
+                estimate = {0: values_of_line, 1: np.full(n, slope), 2: np.zeros(n)}
             else:
                 # the grid in steps, so that a record's estimate scales with its step exactly
-                length_scale_s = dt * snap_to_grid(fitted[0] / dt, 1.0, max(2.0, n - 1.0))
+                scaled = snap_to_grid(fitted[0] / fit_step, 1.0, max(2.0, n - 1.0))
+                length_scale_s = fit_step * scaled
                 ratio = snap_to_grid(fitted[1], MIN_NOISE_RATIO, MAX_NOISE_RATIO)
-                estimate = posterior_derivatives(column, dt, orders, length_scale_s, ratio)
+                estimate = posterior(column, length_scale_s, ratio)
                 at_fit = GaussianProcess(length_scale_s=length_scale_s, noise_ratio=ratio)
-                trusted = trusted_samples(
-                    at_fit, n, dt, orders, FITTED_END_ERROR_FACTOR, short_record_middle=True
-                )
-                for order in orders:
-                    valid[order] &= trusted[order]
+                for order, mask in trusted(at_fit).items():
+                    valid[order] &= mask
             for order in orders:
                 values[order][:, index] = estimate[order]
         for order in orders:
@@ -837,48 +886,6 @@ class GaussianProcessMarginalLikelihood(Method):
                 )
         values = {order: value.reshape(x.shape) for order, value in values.items()}
         return values, valid
-
-
-def _ml_estimate_at(method, x, times, orders):
-    """:class:`GaussianProcessMarginalLikelihood` at irregular ``times``: each channel's
-    hyperparameters fitted as on the uniform path, on the channel resampled to the grid a
-    resampled method would use (the likelihood's sample layout needs uniform times), then the
-    posterior mean at the stamps themselves (:func:`posterior_derivatives_at`), its ends
-    trusted as the fitted ``gaussian_process``'s at the mean step."""
-    from diffbench.methods._time_stamps import to_grid, uniform_grid
-
-    n = times.size
-    columns = x.reshape(n, -1)
-    grid, grid_step = uniform_grid(times)
-    step = (times[-1] - times[0]) / (n - 1)
-    values = {order: np.empty_like(columns) for order in orders}
-    valid = {order: np.ones(n, dtype=bool) for order in orders}
-    for index in range(columns.shape[1]):
-        column = columns[:, index]
-        on_grid = to_grid(column, times, grid)
-        fitted = fit_hyperparameters(_canonical(on_grid), grid_step, method.fit_samples)
-        if fitted is None:  # a straight line: the least-squares line in time
-            centred = times - times.mean()
-            slope = float(centred @ (column - column.mean()) / (centred @ centred))
-            estimate = {0: column.mean() + slope * centred, 1: np.full(n, slope), 2: np.zeros(n)}
-        else:
-            length_scale_s = grid_step * snap_to_grid(fitted[0] / grid_step, 1.0, max(2.0, n - 1.0))
-            ratio = snap_to_grid(fitted[1], MIN_NOISE_RATIO, MAX_NOISE_RATIO)
-            estimate = posterior_derivatives_at(column, times, orders, length_scale_s, ratio)
-            at_fit = GaussianProcess(length_scale_s=length_scale_s, noise_ratio=ratio)
-            trusted = trusted_times(
-                at_fit,
-                times,
-                step,
-                orders,
-                factor=FITTED_END_ERROR_FACTOR,
-                short_record_middle=True,
-            )
-            for order in orders:
-                valid[order] &= trusted[order]
-        for order in orders:
-            values[order][:, index] = estimate[order]
-    return {order: value.reshape(x.shape) for order, value in values.items()}, valid
 
 
 def snap_to_grid(value: float, low: float, high: float, step: float = FIT_GRID) -> float:

@@ -17,7 +17,12 @@ from diffbench.methods._local_poly import (
     kernel_weighted_weights_at,
 )
 from diffbench.methods._registry import FirMethod, Preset, param, register
-from diffbench.methods._validation import MAX_WINDOW_STEPS, DeferredValueError, finite_samples
+from diffbench.methods._validation import (
+    MAX_WINDOW_STEPS,
+    DeferredValueError,
+    finite_samples,
+    mean_step,
+)
 from diffbench.methods.jacobi_kernel import (
     MAX_AMPLIFICATION,
     MAX_EXPONENT,
@@ -496,7 +501,7 @@ class Jacobi(FirMethod):
 
     def _estimate_at(self, x, times, orders):
         values, valid = {}, {}
-        mean = (times[-1] - times[0]) / (times.size - 1)
+        mean = mean_step(times)
         for order in orders:
             name, window = self._window(order)
             if times[-1] - times[0] < window:

@@ -11,7 +11,7 @@ import numpy as np
 from scipy import linalg, signal
 
 from diffbench.methods._registry import Method, Preset, param, register
-from diffbench.methods._validation import check_frequency
+from diffbench.methods._validation import check_frequency, mean_step
 
 CONVERGED = 1e-12
 """How close (relative) the covariance recursion's gain and covariance must come to the
@@ -659,7 +659,7 @@ def irregular_models(
     with Q from :func:`integrated_white_noise` at the spectral density of the uniform model
     of step h. Returns (Fs, Qs, to_derivatives)."""
     states = model_order + 1
-    step = float((times[-1] - times[0]) / (times.size - 1))
+    step = mean_step(times)
     density = (2 * math.pi * bandwidth_hz) ** (2 * states) * step
     to_derivatives = np.array([math.factorial(j) / step**j for j in range(states)])
     gaps = np.r_[step, np.diff(times)]

@@ -13,6 +13,7 @@ from diffbench.methods._local_poly import (
     window_samples,
 )
 from diffbench.methods._registry import FirMethod, Preset, param, register
+from diffbench.methods._validation import mean_step
 
 
 @register("savitzky_golay")
@@ -124,7 +125,7 @@ class SavitzkyGolay(FirMethod):
 
     def _estimate_at(self, x, times, orders):
         span = times[-1] - times[0]
-        mean = span / (times.size - 1)
+        mean = mean_step(times)
         steps = max(2, 2 * round(self.window_s / (2 * mean)))
         grid_step = self.window_s / steps
         if span < self.window_s:

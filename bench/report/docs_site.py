@@ -223,7 +223,7 @@ def on_config(config):
     return config
 
 
-SPHINX_ROLE = re.compile(r":(?:func|class|meth|mod|data|attr|obj|math):<code>~?([^<]*)</code>")
+SPHINX_ROLE = re.compile(r":(?:func|class|meth|mod|data|attr|obj|math):<code>(~?)([^<]*)</code>")
 """A Sphinx role the numpydoc docstrings use (``:func:`~x.y```) as mkdocstrings renders it:
 the role's name left as text before the code."""
 
@@ -236,13 +236,8 @@ def on_page_content(html, page, config, files):
         return html
 
     def plain(match):
-        target = match.group(1)
-        shown = (
-            target.rsplit(".", 1)[-1]
-            if match.group(0).split("<code>")[1].startswith("~")
-            else target
-        )
-        return f"<code>{shown}</code>"
+        tilde, target = match.groups()
+        return f"<code>{target.rsplit('.', 1)[-1] if tilde else target}</code>"
 
     return SPHINX_ROLE.sub(plain, html)
 

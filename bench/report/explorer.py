@@ -252,7 +252,7 @@ def grid_errors_figure(frame: pd.DataFrame, along: str) -> dict | None:
     symbols = {1: "ẋ", 2: "ẍ"}
     groups = list(frame.groupby(keys, sort=False))
     methods_shown = sorted(set(frame["method"]))
-    traces, buttons = [], []
+    traces, entries = [], []  # entries: each menu entry's label and its traces' range
     for index, (key, group) in enumerate(groups):
         noise, fixed, order, region = key
         fixed_text = f"{fixed:g} ms" if other == "step_ms" else f"level {fixed:g}"
@@ -272,11 +272,15 @@ def grid_errors_figure(frame: pd.DataFrame, along: str) -> dict | None:
                     "visible": index == 0,
                 }
             )
-        buttons.append({"label": label, "first": first, "last": len(traces)})
-    for button in buttons:
-        first, last = button.pop("first"), button.pop("last")
-        visible = [first <= i < last for i in range(len(traces))]
-        button.update({"method": "update", "args": [{"visible": visible}]})
+        entries.append((label, range(first, len(traces))))
+    buttons = [
+        {
+            "label": label,
+            "method": "update",
+            "args": [{"visible": [i in shown for i in range(len(traces))]}],
+        }
+        for label, shown in entries
+    ]
     if not traces:
         return None
     layout = {

@@ -2,6 +2,7 @@
 filterable tables and interactive figures, working offline from files; tested in a real
 browser (headless Chromium driven by Playwright) where one is installed, as CI installs it."""
 
+import contextlib
 import re
 import shutil
 from pathlib import Path
@@ -80,6 +81,21 @@ def _browser():
     return sync_api, chromium
 
 
+@contextlib.contextmanager
+def _opened(sync_api, chromium: str, page_path: Path):
+    """The page at ``page_path`` in headless Chromium, and the list its script errors go to."""
+    with sync_api.sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=chromium, args=CHROMIUM_ARGS)
+        page = browser.new_page()
+        errors = []
+        page.on("pageerror", lambda error: errors.append(str(error)))
+        page.goto(page_path.as_uri())
+        try:
+            yield page, errors
+        finally:
+            browser.close()
+
+
 def test_the_explorer_sorts_filters_toggles_and_draws_in_a_real_browser(tmp_path):
     sync_api, chromium = _browser()
     folder = RESULTS / "paper-signal"
@@ -91,12 +107,7 @@ def test_the_explorer_sorts_filters_toggles_and_draws_in_a_real_browser(tmp_path
     index = next(i for i, (_, t) in enumerate(tables, 1) if t.equals(rmse))
     column = "RMSE ẋ interior"
     means = [float(cell.split("±")[0]) for cell in rmse[column]]
-    with sync_api.sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=chromium, args=CHROMIUM_ARGS)
-        page = browser.new_page()
-        errors = []
-        page.on("pageerror", lambda error: errors.append(str(error)))
-        page.goto(page_path.as_uri())
+    with _opened(sync_api, chromium, page_path) as (page, errors):
         page.wait_for_selector(".js-plotly-plot .main-svg")  # a figure rendered
         table = page.locator(f"#table-{index}")
         column_index = list(rmse.columns).index(column)
@@ -121,7 +132,6 @@ def test_the_explorer_sorts_filters_toggles_and_draws_in_a_real_browser(tmp_path
         traces = page.evaluate(f"document.getElementById('{figure}').data.length")
         assert traces == len(set(rmse["method"]))
         assert errors == []
-        browser.close()
 
 
 @pytest.mark.parametrize("folder", ["studies/online", "studies/paper-figures"])
@@ -170,12 +180,7 @@ def test_the_grid_explorer_switches_its_cell_in_a_real_browser(tmp_path):
     figure = explorer.grid_errors_figure(pd.read_csv(folder / "errors.csv"), "level")
     buttons = figure["layout"]["updatemenus"][0]["buttons"]
     first, second = (sum(b["args"][0]["visible"]) for b in buttons[:2])
-    with sync_api.sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=chromium, args=CHROMIUM_ARGS)
-        page = browser.new_page()
-        errors = []
-        page.on("pageerror", lambda error: errors.append(str(error)))
-        page.goto(page_path.as_uri())
+    with _opened(sync_api, chromium, page_path) as (page, errors):
         page.wait_for_selector("#figure-errors-level .main-svg")
         shown = (
             "document.getElementById('figure-errors-level').data"
@@ -186,4 +191,3 @@ def test_the_grid_explorer_switches_its_cell_in_a_real_browser(tmp_path):
         page.locator("#figure-errors-level .updatemenu-dropdown-button").nth(1).click()
         page.wait_for_function(f"{shown} === {second}", timeout=10_000)
         assert errors == []
-        browser.close()
