@@ -141,3 +141,10 @@ def test_central_ends_are_not_estimated_and_a_window_need_not_fit_the_mean_step(
         assert np.isfinite(central[order][inner]).all()
         assert np.isnan(central[order][~inner]).all() and not central.valid[order][~inner].any()
         assert np.isfinite(method(x, t=t)[order]).all()
+
+
+def test_stamps_spanning_less_than_a_window_are_refused_naming_t_and_the_window():
+    t = jittered(n=30)  # 29 ms of stamps
+    method = methods.get("jacobi", **SETTING)  # windows of 40 and 50 ms
+    with pytest.raises(ValueError, match=r"^`t` spans .* s, shorter than `window_s`=0.04 s"):
+        method(np.sin(t), t=t)
