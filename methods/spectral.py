@@ -19,6 +19,13 @@ LEAN_PERIOD = _fft.SPLIT_FROM
 """Periods (samples of the extended record) from which :func:`spectral_derivatives` works
 channel by channel and block by block (:func:`_lean_derivatives`): no array of the extended
 record but the one being transformed, and the transforms split (:mod:`._fft`)."""
+TAPER_REACHES = 4
+"""The taper (:func:`tapered_spectral_derivatives`) ends at most this many times the wide
+low-pass's reach from each end: a sharp transition's kernel is long (1/(r f_c): 0.87 s at
+r = 0.07 and 16 Hz), and a taper that long would leave little of a short record to the sharp
+low-pass. Measured on the paper signal over 1.1-4.937 s (20 seeds): 3 puts a valid ẍ at 3.0
+times the interior's (2.345 s, the preset), 4 at 2.4; on the 1 s record, whose ends meet,
+the interior ẋ RMSE at an oracle-tuned setting (r = 0.11) is 2.32 with 4, 2.41 uncapped."""
 MAX_RECORD_STEPS = 1e9
 """The longest record the lowest cutoff may demand (two of its periods), in sampling steps."""
 
@@ -319,17 +326,104 @@ def end_basis(degree: int) -> np.ndarray:
     return basis
 
 
+def end_filter(cutoff_hz: float, rolloff: float, end_rolloff: float) -> tuple[float, float]:
+    r"""Cutoff and rolloff of the low-pass used near the ends: the transition widened to
+    :math:`r_e = \max(r_e, r)` with the passband edge kept,
+    :math:`f_e (1 - r_e/2) = f_c (1 - r/2)`."""
+    rolloff_end = max(end_rolloff, rolloff)
+    return cutoff_hz * (1 - rolloff / 2) / (1 - rolloff_end / 2), rolloff_end
+
+
+def ringing_samples(cutoff_hz: float, rolloff: float, dt: float, n: int) -> int:
+    r"""How far (samples, at most ``n``) a join of the extension reaches into the record:
+    one over the transition's width, :math:`1 / (r f_c \Delta t)` (the raised-cosine kernel
+    decays as :math:`t^{-3}` from there on; a brick wall never does)."""
+    width_hz = rolloff * cutoff_hz
+    if width_hz * n * dt <= 1.0:
+        return n
+    return math.ceil(1.0 / (width_hz * dt))
+
+
+def taper_weights(n: int, reach: int, reach_end: int) -> tuple[np.ndarray, np.ndarray]:
+    r"""The samples of an n-sample record within ``reach`` of an end (indices, increasing) and
+    the weight :math:`\lambda_k` of the sharp low-pass at each
+    (:func:`tapered_spectral_derivatives`): 0 up to ``reach_end`` samples from the nearer
+    end, a raised cosine to 1 at ``reach`` (> ``reach_end``); 1 at every other sample."""
+    head = min(reach, n)
+    near = np.concatenate([np.arange(head), np.arange(max(n - reach, head), n)])
+    distance = np.minimum(near, n - 1 - near)
+    ramp = np.clip((distance - reach_end) / (reach - reach_end), 0.0, 1.0)
+    return near, 0.5 - 0.5 * np.cos(np.pi * ramp)
+
+
+def tapered_spectral_derivatives(
+    x: np.ndarray,
+    dt: float,
+    orders,
+    cutoff_hz: float,
+    rolloff: float,
+    extension: str,
+    fit_degree: int = 1,
+    end_rolloff: float = 0.5,
+) -> tuple[dict[int, np.ndarray], int]:
+    r""":func:`spectral_derivatives` with the low-pass's transition widened towards the ends,
+    and how many samples at each end still feel the joins.
+
+    The extension's joins (:func:`extend`) match the record's value and slope but not its
+    curvature; the low-pass spreads that jump over its kernel's length,
+    :math:`L = 1/(r f_c)` (:func:`ringing_samples`): 0.38 s at the paper-signal preset, with
+    errors up to 53 times the interior's. Near the ends the estimate is blended with the same
+    estimate through a low-pass with a wider transition :math:`r_e` and the same passband
+    edge (:func:`end_filter`), whose kernel is short, :math:`L_e = 1/(r_e f_e)`, over
+    :math:`L_e \le d_k < L' = \min(L, 4 L_e)` (:data:`TAPER_REACHES`):
+
+    .. math:: \hat x^{(n)}_k = \lambda_k \hat x^{(n)}_{k, r} + (1 - \lambda_k)
+        \hat x^{(n)}_{k, r_e}, \qquad \lambda_k = \tfrac12 - \tfrac12 \cos\left(\pi
+        \,\mathrm{clip}\left(\frac{d_k - L_e}{L' - L_e}, 0, 1\right)\right)
+
+    with :math:`d_k` the samples from sample k to the nearer end. Both estimates are exact on
+    the same polynomials, so is the blend; beyond L' from both ends it is
+    :func:`spectral_derivatives`' bit for bit. The first and last :math:`L_e` samples are
+    the wide low-pass's own ringing (returned, for the caller's marks). ``"none"`` (a
+    periodic record, no joins): :func:`spectral_derivatives` and 0.
+
+    On the paper signal over 1.1-4.937 s (20 seeds, the preset), every sample beyond
+    :math:`L_e` is within 2.4 times the interior's RMS error, against 53 times without the
+    taper; the whole record's ẋ RMSE over 2.345 s goes from 8.9 to 4.8.
+    """
+    n = x.shape[0]
+    sharp = spectral_derivatives(x, dt, orders, cutoff_hz, rolloff, extension, fit_degree)
+    if extension == "none":
+        return sharp, 0
+    cutoff_end, rolloff_end = end_filter(cutoff_hz, rolloff, end_rolloff)
+    reach_end = ringing_samples(cutoff_end, rolloff_end, dt, n)
+    reach = min(ringing_samples(cutoff_hz, rolloff, dt, n), TAPER_REACHES * reach_end)
+    if reach <= reach_end:
+        return sharp, reach_end
+    wide = spectral_derivatives(x, dt, orders, cutoff_end, rolloff_end, extension, fit_degree)
+    near, weight = taper_weights(n, reach, reach_end)
+    weight = weight.reshape((-1,) + (1,) * (x.ndim - 1))
+    for order in orders:
+        sharp[order][near] = weight * sharp[order][near] + (1 - weight) * wide[order][near]
+    return sharp, reach_end
+
+
 @register("spectral")
 class Spectral(Method):
     """FFT differentiation of the record made periodic, with a raised-cosine low-pass (see
     :func:`spectral_derivatives`).
 
-    The record must span at least two periods of the cutoff. Every sample is estimated (no
-    masked ends). Long records (from about 1e6 samples) are transformed in bounded memory:
-    694 MiB at 1e7 samples (see :func:`_lean_derivatives`). Linear in the input. Exact on
-    polynomials of ``fit_degree`` with the ``odd-fitted`` extension, on straight lines with
-    ``odd`` and on constants with the others: the polynomial taken out is differentiated
-    exactly, and a low-pass passes 0 Hz unchanged.
+    The record must span at least two periods of the cutoff. Every sample is estimated;
+    towards the ends the low-pass's transition widens to ``end_rolloff`` (the passband edge
+    kept, :func:`tapered_spectral_derivatives`), so that the extension's joins reach
+    :math:`L_e = 1/(r_e f_e)` into the record instead of :math:`1/(r f_c)`; those first and
+    last :math:`L_e` samples keep their estimates and are marked not valid (on a record
+    shorter than :math:`4 L_e`, its first and last quarter). ``"none"`` (a periodic record)
+    has no joins: nothing is widened or marked. Long records (from about 1e6 samples) are
+    transformed in bounded memory: 694 MiB at 1e7 samples (see :func:`_lean_derivatives`).
+    Linear in the input. Exact on polynomials of ``fit_degree`` with the ``odd-fitted``
+    extension, on straight lines with ``odd`` and on constants with the others: the
+    polynomial taken out is differentiated exactly, and a low-pass passes 0 Hz unchanged.
     Its frequency response away from the ends is :math:`H(f)(i2\\pi f)^n`.
 
     Parameters
@@ -353,6 +447,12 @@ class Spectral(Method):
         Tuned only on the whole record (``ends_only``): the interior hardly tells the degrees
         apart, the ends do (degree 3 on the 1 s paper record: whole-record RMSE of ẋ 2.9
         against 2.1 for degree 1).
+    end_rolloff : float in [0, 1]
+        Transition width / cutoff of the low-pass near the ends (at least ``rolloff``; at or
+        below it, no taper), :func:`end_filter`; unused by ``"none"``. Wider: shorter ringing
+        at the ends and fewer samples marked, more noise passed there. Tuned on the interior
+        too: the taper reaches :math:`1/(r f_c)` into the record, 0.38 s at the paper-signal
+        preset, beyond a 0.15 s margin.
 
     References
     ----------
@@ -393,6 +493,14 @@ class Spectral(Method):
         doc="degree of the polynomial odd-fitted takes out (unused by the other extensions)",
         ends_only=True,
     )
+    end_rolloff: float = param(
+        0.5,
+        low=0.0,
+        high=1.0,
+        tune_low=0.0,
+        tune_high=1.0,
+        doc="transition width / cutoff of the low-pass near the ends, passband edge kept",
+    )
 
     presets = {
         "paper-signal": Preset(
@@ -424,7 +532,8 @@ class Spectral(Method):
         return max(3, math.ceil(steps - 1e-9) + 1)
 
     def unused_params(self) -> tuple[str, ...]:
-        return () if self.extension == "odd-fitted" else ("fit_degree",)
+        unused = () if self.extension == "odd-fitted" else ("fit_degree",)
+        return unused + (("end_rolloff",) if self.extension == "none" else ())
 
     def exact_degree(self, order: int) -> float | None:
         if self.extension == "odd-fitted":
@@ -436,8 +545,19 @@ class Spectral(Method):
         return (2j * np.pi * f) ** order * raised_cosine_lowpass(f, self.cutoff_hz, self.rolloff)
 
     def _estimate(self, x, dt, orders):
-        values = spectral_derivatives(
-            x, dt, orders, self.cutoff_hz, self.rolloff, self.extension, self.fit_degree
+        values, ringing = tapered_spectral_derivatives(
+            x,
+            dt,
+            orders,
+            self.cutoff_hz,
+            self.rolloff,
+            self.extension,
+            self.fit_degree,
+            self.end_rolloff,
         )
-        valid = {order: np.ones(x.shape[0], dtype=bool) for order in orders}
-        return values, valid
+        n = x.shape[0]
+        masked = min(ringing, (n - 1) // 4)  # a record shorter than 4 reaches: its middle half
+        trusted = np.ones(n, dtype=bool)
+        trusted[:masked] = False
+        trusted[n - masked :] = False
+        return values, {order: trusted.copy() for order in orders}

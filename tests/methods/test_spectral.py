@@ -3,6 +3,8 @@
 its criterion), the records it refuses; and its lean path for long records (split FFTs,
 normal equations) against numpy's FFT and the QR path, with its memory."""
 
+import math
+
 import numpy as np
 import pytest
 from scipy import linalg
@@ -12,11 +14,14 @@ from diffbench.bench.studies import timing
 from diffbench.methods import _fft
 from diffbench.methods import spectral as spectral_module
 from diffbench.methods.spectral import (
+    TAPER_REACHES,
     end_basis,
+    end_filter,
     extend,
     polynomial_trend,
     raised_cosine_lowpass,
     spectral_derivatives,
+    taper_weights,
 )
 from diffbench.signals.scenarios import get_scenario
 
@@ -49,7 +54,21 @@ def lean(request, monkeypatch):
 def test_every_sample_equals_the_response_on_sinusoids_the_extension_continues(
     extension, wave, n_samples, rolloff, lean
 ):
+    """Towards the ends (not for ``none``) the response is the blend of the sharp low-pass's
+    and the wide one's (:func:`end_filter`) with the taper's weights; the wide one's own
+    ringing, the first and last 1/(r_e f_e) samples, is marked not valid."""
     method = methods.get("spectral", cutoff_hz=40.0, rolloff=rolloff, extension=extension)
+    cutoff_end, rolloff_end = end_filter(40.0, rolloff, method.end_rolloff)
+    wide = methods.get("spectral", cutoff_hz=cutoff_end, rolloff=rolloff_end)
+    reach_end = math.ceil(1 / (rolloff_end * cutoff_end * DT))
+    sharp_weight = np.ones(n_samples)
+    trusted = np.ones(n_samples, dtype=bool)
+    if extension != "none":
+        reach = math.ceil(1 / (rolloff * 40.0 * DT)) if rolloff else n_samples
+        reach = min(reach, TAPER_REACHES * reach_end)  # the brick wall's: capped
+        near, weight = taper_weights(n_samples, reach, reach_end)
+        sharp_weight[near] = weight
+        trusted[:reach_end] = trusted[-reach_end:] = False
     t = np.arange(n_samples) * DT
     for frequency in (3.0, 17.0, 39.0, 45.0, 210.0):
         omega = 2 * np.pi * frequency
@@ -57,11 +76,12 @@ def test_every_sample_equals_the_response_on_sinusoids_the_extension_continues(
         phase = 0.0 if wave == "cos" else -np.pi / 2
         estimate = method(x, DT)
         for order in (0, 1, 2):
-            response = method.frequency_response([frequency], DT, order)[0]
+            response = sharp_weight * method.frequency_response([frequency], DT, order)[0]
+            response += (1 - sharp_weight) * wide.frequency_response([frequency], DT, order)[0]
             expected = np.real(response * np.exp(1j * (omega * t + phase)))
             scale = max(1.0, omega**order)
             np.testing.assert_allclose(estimate[order], expected, rtol=0, atol=1e-9 * scale)
-            assert estimate.valid[order].all()
+            np.testing.assert_array_equal(estimate.valid[order], trusted)
     # the gain: passband 1, stopband 0, -6 dB at the cutoff for a smooth roll-off
     gain = raised_cosine_lowpass(np.array([10.0, 40.0, 70.0]), 40.0, rolloff)
     assert gain[0] == 1.0 and gain[2] == 0.0
@@ -129,11 +149,13 @@ def test_the_odd_extensions_reproduce_polynomials_of_their_degree_to_the_ends(le
 
 
 def test_passband_sinusoids_are_exact_and_stopband_ones_leak_only_at_the_ends(lean):
-    """odd-fitted on sines its reflection continues: in the passband the fit is zero and every
-    sample is exact; a strong sine just above the cutoff moves the fit (its reflected spectrum
-    overlaps the powers'), which shows within a few cutoff periods of the ends, the caveat of
-    :func:`polynomial_trend`."""
-    method = methods.get("spectral", cutoff_hz=40.0, rolloff=0.0, extension="odd-fitted")
+    """odd-fitted (no taper: one brick wall) on sines its reflection continues: in the
+    passband the fit is zero and every sample is exact; a strong sine just above the cutoff
+    moves the fit (its reflected spectrum overlaps the powers'), which shows within a few
+    cutoff periods of the ends, the caveat of :func:`polynomial_trend`."""
+    method = methods.get(
+        "spectral", cutoff_hz=40.0, rolloff=0.0, extension="odd-fitted", end_rolloff=0.0
+    )
     t = np.arange(N_STEPS + 1) * DT
     for frequency in (3.0, 17.0, 39.0):
         omega = 2 * np.pi * frequency
@@ -267,3 +289,17 @@ def test_a_long_record_takes_a_quarter_of_the_memory_of_the_whole_transforms():
     middle = slice(n // 4, 3 * n // 4)
     omega = 2 * np.pi * 4
     np.testing.assert_allclose(estimate[1][middle], omega * np.cos(omega * t[middle]), atol=1e-6)
+
+
+@pytest.mark.parametrize(("n", "reach", "reach_end"), [(2001, 383, 100), (301, 383, 100)])
+def test_the_taper_weights_rise_from_the_wide_low_pass_to_the_sharp_one(n, reach, reach_end):
+    near, weight = taper_weights(n, reach, reach_end)
+    full = np.ones(n)
+    full[near] = weight
+    distance = np.minimum(np.arange(n), np.arange(n)[::-1])
+    np.testing.assert_array_equal(full[distance <= reach_end], 0.0)
+    np.testing.assert_array_equal(full[distance >= reach], 1.0)
+    np.testing.assert_array_equal(full, full[::-1])
+    half = full[: n // 2 + 1]
+    assert np.all(np.diff(half) >= 0)
+    assert np.unique(near).size == near.size  # each sample once, however short the record
