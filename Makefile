@@ -66,7 +66,7 @@ studies: $(STAMP)
 	  --tuning-seeds 10 --budget 400 --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal --orders 1,2 --seeds $(SEEDS) \
 	  --tuning-seeds 10 --budget 400 --region whole --jobs 2 --out $(STUDIES)
-	for record in paper-signal-4937ms paper-signal-999ms; do \
+	for record in paper-signal-4937ms paper-signal-999ms kink; do \
 	  $(BIN)/diffbench run $$record --seeds $(SEEDS) --jobs 2 --out $(STUDIES) && \
 	  $(BIN)/diffbench tune native,$(SPECTRAL_PEERS) $$record --criteria oracle \
 	    --orders 1,2 --seeds $(SEEDS) --jobs 2 --out $(STUDIES) && \

@@ -23,6 +23,7 @@ from typing import Any, ClassVar, TypeVar
 
 import numpy as np
 from numpy.polynomial import polynomial as npoly
+from scipy import special
 
 from diffbench.signals._checks import (
     check_real,
@@ -426,3 +427,62 @@ class DampedOscillation(Signal):
         s = complex(-zeta * omega, omega * np.sqrt(1.0 - zeta**2))
         z = self.amplitude * np.exp(s * t + 1j * self.phase_rad)
         return z.imag.copy(), (s * z).imag, (s**2 * z).imag
+
+
+@register_signal("smoothed_kink")
+@dataclass(frozen=True, kw_only=True)
+class SmoothedKink(Signal):
+    r"""The kink :math:`A|t - t_0|` smoothed by a Gaussian of standard deviation
+    :math:`\sigma`: a slope that turns from :math:`-A` to :math:`A` within a few
+    :math:`\sigma`, the test of a differentiator's resolution (a global low-pass blurs the
+    turn, a local fit rings around it).
+
+    .. math::
+
+        x(t) = A\left(u \operatorname{erf}\frac{u}{\sigma\sqrt 2}
+               + \sigma\sqrt{2/\pi}\, e^{-u^2 / 2\sigma^2}\right), \quad
+        \dot x(t) = A \operatorname{erf}\frac{u}{\sigma\sqrt 2}, \quad
+        \ddot x(t) = \frac{A}{\sigma}\sqrt{2/\pi}\, e^{-u^2 / 2\sigma^2}
+
+    with :math:`u = t - t_0`: :math:`x = A\,\mathbb E|u + \sigma Z|`, Z standard normal.
+
+    Parameters
+    ----------
+    kink_s : float
+        :math:`t_0`, the time of the turn in seconds, finite (default 0.5).
+    width_s : float
+        :math:`\sigma`, the smoothing's standard deviation in seconds, finite and > 0
+        (default 0.1; the ``kink`` scenario's is 0.005).
+    amplitude : float
+        :math:`A`, finite and > 0 (default 1).
+
+    References
+    ----------
+    .. [1] M. Abramowitz, I. A. Stegun, *Handbook of Mathematical Functions*, Dover, 1964,
+       7.1.1 (erf) and 26.2 (the normal law).
+
+    Examples
+    --------
+    The turn itself: :math:`\dot x(t_0) = 0`, :math:`\ddot x(t_0) = A\sqrt{2/\pi}/\sigma`.
+
+    >>> truth = SmoothedKink(kink_s=0.5, width_s=0.01).evaluate([0.5])
+    >>> float(truth[1][0]), round(float(truth[2][0]), 6)
+    (0.0, 79.788456)
+    """
+
+    kink_s: float = 0.5
+    width_s: float = 0.1
+    amplitude: float = 1.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "kink_s", check_real("kink_s", self.kink_s))
+        object.__setattr__(self, "width_s", check_real("width_s", self.width_s, gt=0))
+        object.__setattr__(self, "amplitude", check_real("amplitude", self.amplitude, gt=0))
+
+    def _derivatives(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        u = t - self.kink_s
+        sigma = self.width_s
+        slope = special.erf(u / (sigma * np.sqrt(2.0)))
+        bell = np.sqrt(2.0 / np.pi) * np.exp(-0.5 * (u / sigma) ** 2)
+        a = self.amplitude
+        return a * (u * slope + sigma * bell), a * slope, a * bell / sigma

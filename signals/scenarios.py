@@ -25,7 +25,15 @@ from diffbench.signals._checks import (
     read_only,
     unknown_choice_hint,
 )
-from diffbench.signals.clean import Chirp, DampedOscillation, PaperSines, Polynomial, Signal, Truth
+from diffbench.signals.clean import (
+    Chirp,
+    DampedOscillation,
+    PaperSines,
+    Polynomial,
+    Signal,
+    SmoothedKink,
+    Truth,
+)
 from diffbench.signals.noise import Gaussian, NoiseStack, Poisson, Quantisation, Sinusoid
 from diffbench.signals.stochastic import BandLimited, IntegratedWhiteNoise, Matern
 from diffbench.signals.timing import Dropout, Jitter, SamplingModel
@@ -323,6 +331,23 @@ register_scenario(
         "paper-signal with 1000 samples (0 to 0.999 s) instead of 1001: its last sample is "
         "not the zero every component has at 1 s, so its ends do not meet and an odd "
         "extension is no longer exact there.",
+    )
+)
+register_scenario(
+    Scenario(
+        name="kink",
+        signal=SmoothedKink(kink_s=0.5, width_s=0.005, amplitude=1.0),
+        noise=NoiseStack(_PAPER_NOISE),
+        dt_s=1e-3,
+        duration_s=1.0,
+        interior_margin_s=0.15,
+        description=(
+            "|t - 0.5| smoothed by a Gaussian of 5 ms standard deviation (its slope turns from "
+            "-1 to 1 within about 20 ms) sampled at 1 ms for 1 s, with the noise of "
+            "paper-signal: a sharp feature in a smooth record, which a global low-pass blurs "
+            "and a local fit rings around."
+        ),
+        preset="default",
     )
 )
 register_scenario(

@@ -8,6 +8,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from numpy.polynomial import Polynomial as NumpyPolynomial
+from scipy import integrate, stats
 
 from diffbench import signals
 from diffbench.signals import (
@@ -16,6 +17,7 @@ from diffbench.signals import (
     PaperSines,
     Polynomial,
     Signal,
+    SmoothedKink,
     Truth,
     available_signals,
     clean,
@@ -24,7 +26,7 @@ from diffbench.signals import (
     signal_class,
 )
 
-BUILTIN = ["chirp", "damped_oscillation", "paper_sines", "polynomial"]
+BUILTIN = ["chirp", "damped_oscillation", "paper_sines", "polynomial", "smoothed_kink"]
 # drawn, not evaluated: tests/signals/test_stochastic
 RANDOM = ["band_limited", "integrated_white_noise", "matern"]
 
@@ -375,3 +377,42 @@ def test_parameters_are_keyword_only_and_normalised():
 def test_evaluate_rejects_bad_times(name, t, message):
     with pytest.raises(ValueError, match=message):
         get_signal(name).evaluate(t)
+
+
+@given(
+    kink_s=st.floats(-1.0, 2.0),
+    width_s=st.floats(0.05, 1.0),
+    amplitude=st.floats(0.1, 5.0),
+)
+def test_smoothed_kink_derivatives_for_any_wide_parameters(kink_s, width_s, amplitude):
+    # the oracle's finest step is 2^-12 s: its error grows as (h / width)^8, so widths of at
+    # least 50 ms here; the sharp kinks are checked against the normal law below
+    signal = SmoothedKink(kink_s=kink_s, width_s=width_s, amplitude=amplitude)
+    assert_derivatives_match_finite_differences(signal)
+
+
+@pytest.mark.parametrize("width_s", [0.005, 0.0005])
+def test_smoothed_kink_is_the_mean_of_the_kink_over_the_normal_law(width_s):
+    """x = A E|u + σZ| by quadrature, ẋ = A (2Φ(u/σ) - 1) and ẍ = 2A φ(u/σ)/σ from scipy's
+    normal law, independent of the erf form; quad's own error estimate bounds the first."""
+    signal = SmoothedKink(kink_s=0.5, width_s=width_s, amplitude=2.0)
+    t = np.array([0.0, 0.49, 0.5 - 0.3 * width_s, 0.5, 0.5 + 2.1 * width_s, 0.62, 1.0])
+    truth = signal.evaluate(t)
+    u = t - 0.5
+    for k, uk in enumerate(u):
+        value, error = integrate.quad(
+            lambda z, uk=uk: abs(uk + width_s * z) * stats.norm.pdf(z),
+            -40,
+            40,
+            points=[-uk / width_s],
+        )
+        assert truth[0][k] == pytest.approx(2.0 * value, abs=2.0 * error + 1e-15)
+    np.testing.assert_allclose(
+        truth[1], 2.0 * (2 * stats.norm.cdf(u / width_s) - 1), rtol=0, atol=1e-14
+    )
+    np.testing.assert_allclose(
+        truth[2], 2.0 * 2 * stats.norm.pdf(u / width_s) / width_s, rtol=1e-13, atol=0
+    )
+    # the slope turns from -A to A: ẍ integrates to 2A (trapezoid on a fine grid)
+    fine = np.linspace(0.5 - 12 * width_s, 0.5 + 12 * width_s, 20001)
+    assert integrate.trapezoid(signal.evaluate(fine)[2], fine) == pytest.approx(4.0, rel=1e-9)

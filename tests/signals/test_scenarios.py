@@ -27,6 +27,7 @@ from diffbench.signals import scenarios as scenarios_module
 BUILTIN = [
     "chirp-gaussian",
     "damped-gaussian",
+    "kink",
     "paper-signal",
     "paper-signal-4937ms",
     "paper-signal-999ms",
