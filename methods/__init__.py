@@ -62,6 +62,7 @@ from diffbench.methods._time_stamps import to_grid, uniform_grid
 from diffbench.methods._validation import (
     MAX_ORDER,
     MAX_WINDOW_STEPS,
+    UNIFORM_TOLERANCE,
     check_dt,
     check_signal,
     check_times,
@@ -80,6 +81,7 @@ __all__ = [
     "MAX_ORDER",
     "MAX_WINDOW_STEPS",
     "PARAM_KINDS",
+    "UNIFORM_TOLERANCE",
     "CausalMethod",
     "Estimate",
     "FirMethod",

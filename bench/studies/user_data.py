@@ -22,7 +22,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from diffbench.methods import check_dt, check_signal, did_you_mean, is_uniform, mean_step
+from diffbench.methods import (
+    UNIFORM_TOLERANCE,
+    check_dt,
+    check_signal,
+    did_you_mean,
+    is_uniform,
+    mean_step,
+)
 
 MIN_SAMPLES = 16
 """Fewest samples a record may have: below, no method here estimates a derivative with an
@@ -41,9 +48,13 @@ an interpolation (a 1000 s pause in a 1 ms record), and the surrogates the error
 on have no such gap. The fix is to split the record there."""
 
 DT_TOLERANCE = 0.25
-"""A nominal step ``dt`` given with time stamps must lie within this fraction of their median
-step (a logger's jitter, its lost samples or a slow clock move the median by far less; a step
+"""A nominal step ``dt`` given with uneven time stamps must lie within this fraction of their
+median step (a logger's jitter, its lost samples or a slow clock move the median by far less; a step
 in other units than the stamps' by far more)."""
+
+TIME_NAMES = frozenset({"t", "t_s", "time", "time_s", "times", "timestamp", "seconds", "sec"})
+"""Column names (any case; also any name starting with ``time``) that a channel rising at every
+row is warned about as a likely time column (:func:`_time_like_channels`)."""
 
 LONG_RECORD = 1_000_000
 """Records of more samples than this are read, and warned about: ``recommend`` tunes every
@@ -81,13 +92,15 @@ def read_record(
 
     Both may be given: the time stamps are then the truth and ``dt`` the nominal step (a logger
     at 1 kHz with jitter or lost samples); it must agree with their median step within
-    :data:`DT_TOLERANCE`. Raises ``ValueError`` (one line, naming the file, column and row) for
-    a path that is not a readable regular file (missing, a directory, a FIFO, a symlink loop),
-    a missing column, the time column among the channels, text, empty or NaN cells among the
-    numbers, time stamps that do not increase strictly or have a gap over
-    :data:`MAX_GAP_STEPS` median steps, a ``dt`` that contradicts them, fewer than
-    :data:`MIN_SAMPLES` samples, or no time at all. Warns (:class:`RecordWarning`) about gaps
-    over :data:`GAP_STEPS` median steps and records over :data:`LONG_RECORD` samples.
+    :data:`DT_TOLERANCE`, and with their step to ``UNIFORM_TOLERANCE`` when they are evenly
+    spaced (then the record's step, which any other would scale every derivative by). Raises
+    ``ValueError`` (one line, naming the file, column and row) for a path that is not a readable
+    regular file (missing, a directory, a FIFO, a symlink loop), a missing column, the time
+    column among the channels, text, empty or NaN cells among the numbers, time stamps that do
+    not increase strictly or have a gap over :data:`MAX_GAP_STEPS` median steps, a ``dt`` that
+    contradicts them, fewer than :data:`MIN_SAMPLES` samples, or no time at all. Warns
+    (:class:`RecordWarning`) about gaps over :data:`GAP_STEPS` median steps and records over
+    :data:`LONG_RECORD` samples.
     """
     path = Path(path)
     _check_file(path)
@@ -139,6 +152,7 @@ def read_record(
     nominal = None if dt is None else check_dt(dt)
     if time_column is None:
         x, nominal = check_signal(x, nominal, min_samples=MIN_SAMPLES)
+        notes.extend(_time_like_channels(path, columns, x))
         return _warned(UserRecord(x, tuple(columns), nominal, None, True, str(path), tuple(notes)))
     times = _numbers(table, time_column, path, kind)
     del table
@@ -164,6 +178,16 @@ def read_record(
                 f"{time_column!r}, whose median step is {median:.6g} s "
                 f"({_times(nominal, median)}); give the step of the time stamps in seconds, "
                 "or leave `dt` out (the stamps give it)"
+            )
+        stamped = mean_step(times)
+        if uniform and abs(nominal - stamped) > UNIFORM_TOLERANCE * stamped:
+            # evenly stamped: their step is the record's, and any other one scales every
+            # derivative (a slow clock would not leave them even)
+            raise ValueError(
+                f"{path}: the step `dt` (--dt) {nominal!r} s contradicts column "
+                f"{time_column!r}, whose stamps are evenly {stamped:.9g} s apart "
+                f"({_times(nominal, stamped)}); leave `dt` out (the stamps give it) or give "
+                "their step"
             )
         step = nominal
     else:
@@ -203,6 +227,25 @@ def _check_gaps(path, name, times, steps, median) -> str:
         f"{where}; the record is resampled across them by a cubic spline: the predicted "
         "errors are for evenly sampled data, and near the gaps the error is larger"
     )
+
+
+def _time_like_channels(path: Path, columns: list[str], x: np.ndarray) -> list[str]:
+    """Notes on channels that rise by even steps, as time stamps do: without ``--time`` a time
+    column is differentiated as data (its derivative the constant 1/step, ranked beside the
+    real channels) and the other channels are taken as evenly spaced, gaps or not."""
+    notes = []
+    for k, name in enumerate(columns):
+        steps = np.diff(x[:, k])
+        if not np.all(steps > 0):
+            continue
+        even = np.all(np.abs(steps - steps.mean()) <= 1e-6 * steps.mean())
+        if even or name.casefold() in TIME_NAMES or name.casefold().startswith("time"):
+            notes.append(
+                f"{path}: column {name!r} increases at every row, like time stamps, and is "
+                f"differentiated as a channel, the others taken as evenly spaced; if it is "
+                f"the time, give it as --time {name} (and the channels with --column)"
+            )
+    return notes
 
 
 def _warned(record: UserRecord) -> UserRecord:

@@ -5,6 +5,7 @@ result."""
 import os
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -80,8 +81,16 @@ def test_a_dt_that_contradicts_the_time_stamps_is_refused_with_both(tmp_path):
     path = _csv(tmp_path / "ms.csv", t, x=_sine(t))
     err = _refused(*_cli(path, "--time", "t", "--dt", "1", *FAST, cwd=tmp_path)[::2])
     assert "the step `dt` (--dt) 1.0 s contradicts column 't', whose median step is 0.001 s" in err
-    # within 25 % of the median step it is the nominal step
-    assert read_record(path, time_column="t", dt=1.2e-3).dt_s == 1.2e-3
+    # evenly stamped, their step is the record's: 10 % off would scale every derivative by
+    # 1/1.1 (the battery's case: accepted, ẋ RMSE 15.0 against 9.8)
+    err = _refused(*_cli(path, "--time", "t", "--dt", "0.0011", *FAST, cwd=tmp_path)[::2])
+    assert "--dt) 0.0011 s contradicts column 't', whose stamps are evenly 0.001 s apart" in err
+    assert "leave `dt` out" in err
+    assert read_record(path, time_column="t", dt=1e-3).dt_s == 1e-3
+    # jittered stamps: within 25 % of their median step it is the logger's nominal step
+    jittered = t + np.r_[0.0, np.random.default_rng(3).uniform(-2e-4, 2e-4, t.size - 2), 0.0]
+    uneven = _csv(tmp_path / "jitter.csv", jittered, x=_sine(jittered))
+    assert read_record(uneven, time_column="t", dt=1.2e-3).dt_s == 1.2e-3
 
 
 def test_scaled_records_get_the_same_recommendation_errors_scaled():
@@ -213,3 +222,22 @@ def test_the_derivatives_file_flags_the_samples_its_prediction_is_for(tmp_path):
         assert abs(true_rmse - predicted) <= 2 * spread
         ends = np.sqrt(np.mean(error[~flagged] ** 2))
         assert ends > 3 * true_rmse  # why they are flagged
+
+
+def test_a_time_column_read_as_a_channel_is_warned_about(tmp_path):
+    """No --time and no --column: every column is a channel, the time one too. The battery's
+    case: a 1 ms record with a 1000 s pause, its t ranked as data with no note."""
+    t = np.arange(200) * 1e-3
+    t[100:] += 1000.0
+    path = _csv(tmp_path / "gap.csv", t, x=_sine(t))
+    with pytest.warns(RecordWarning, match=r"column 't' increases at every row, like time"):
+        record = read_record(path, dt=1e-3)
+    assert record.x.shape == (200, 2) and "--time t" in record.notes[0]
+    # an evenly rising column of another name too; channels chosen with --column: no note
+    renamed = pd.DataFrame({"clock": np.arange(200) * 0.5, "x": _sine(t)})
+    renamed.to_csv(tmp_path / "clock.csv", index=False)
+    with pytest.warns(RecordWarning, match=r"column 'clock' increases at every row"):
+        read_record(tmp_path / "clock.csv", dt=1e-3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RecordWarning)
+        assert read_record(path, ["x"], dt=1e-3).notes == ()
