@@ -22,7 +22,13 @@ from typing import Any
 
 from diffbench import methods
 from diffbench.bench.core import search_space, tuning, uptodate
-from diffbench.bench.core.errors import BadInput, DiffbenchNote, DiffbenchWarning
+from diffbench.bench.core.errors import (
+    BadInput,
+    DiffbenchNote,
+    DiffbenchWarning,
+    plugin_failure,
+    plugin_label,
+)
 from diffbench.bench.core.executor import CallTimeout, call_timeout, completed_map, ordered_map
 from diffbench.bench.core.plan import (
     Cell,
@@ -36,7 +42,6 @@ from diffbench.bench.core.provenance import provenance
 from diffbench.bench.core.store import Store, canonical, study_key
 from diffbench.bench.tasks import Task, get_task
 from diffbench.bench.tasks.items import Item, ItemStudy
-from diffbench.methods._plugins import plugin_of_module
 
 MAX_SEEDS = 10_000
 """The most noise seeds a run scores (``--seeds``): each is one cell per entry."""
@@ -69,27 +74,6 @@ class Failed:
     timeout, or a plugin's method raised (or gave output the contract refuses)."""
 
     reason: str
-
-
-def plugin_label(method: str) -> str | None:
-    """``"plugin MODULE (dist NAME VERSION)"`` when ``method`` comes from a plugin outside
-    diffbench's own distribution, else None (diffbench's own code)."""
-    plugin = plugin_of_module(methods.method_class(method).__module__)
-    if plugin is None or plugin.distribution == "diffbench":
-        return None
-    dist = f"{plugin.distribution} {plugin.version}" if plugin.distribution else "none"
-    return f"plugin {plugin.module} (dist {dist})"
-
-
-def plugin_failure(method: str, error: BaseException) -> str | None:
-    """``"plugin MODULE (dist NAME VERSION): method M: Error: message"`` when ``method``
-    comes from a plugin (:func:`plugin_label`), else None (diffbench's code: its bug)."""
-    label = plugin_label(method)
-    if label is None:
-        return None
-    text = str(error).strip().splitlines()
-    detail = f"{type(error).__name__}: {text[0]}" if text else type(error).__name__
-    return f"{label}: method {method}: {detail}"
 
 
 def _timed(

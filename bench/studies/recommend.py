@@ -29,6 +29,7 @@ from __future__ import annotations
 import functools
 import math
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -37,6 +38,7 @@ import pandas as pd
 
 from diffbench import methods
 from diffbench.bench.core import executor
+from diffbench.bench.core.errors import DiffbenchWarning, plugin_failure
 from diffbench.bench.core.scores import error_metrics
 from diffbench.bench.core.spectrum import RecordSpectrum, record_spectrum
 from diffbench.bench.core.surrogates import default_scored, surrogate_records
@@ -53,6 +55,9 @@ scored samples, every one as estimated, trusted or not."""
 
 SCORING_SURROGATES = 4
 """Other surrogates the tuned setting is scored on: the predicted RMSE and its spread."""
+
+FAILED = "failed: "
+"""How a row of a plugin method that failed begins its ``params`` (the reason follows)."""
 
 COLUMNS = (
     "order",
@@ -151,6 +156,9 @@ def recommend(
     if progress is not None:
         rows = progress(rows, len(pairs))
     table = pd.DataFrame(list(rows), columns=list(COLUMNS))
+    for params in table["params"]:
+        if isinstance(params, str) and params.startswith(FAILED):
+            warnings.warn(params[len(FAILED) :], DiffbenchWarning, stacklevel=2)
     for column in ("predicted_rmse", "spread"):
         table[column] = table[column] * scale
     table["rank"] = table.groupby("order")["predicted_rmse"].rank(method="first", na_option="keep")
@@ -189,6 +197,22 @@ def _tuned_and_scored_pair(pair, tuning, scoring, max_evaluations, seed) -> dict
 
 
 def _tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed) -> dict:
+    """The row of ``name`` for ``order``: tuned on the ``tuning`` surrogates, scored on the
+    ``scoring`` ones. A method that cannot be tuned, and a plugin method that fails (an
+    exception, a wrong output: :func:`~diffbench.bench.core.errors.plugin_failure`), gets a
+    row saying why instead of a score; diffbench's own methods' other errors propagate."""
+    try:
+        return _tuned_and_scored_row(name, order, tuning, scoring, max_evaluations, seed)
+    except (Exception, SystemExit) as error:  # a plugin may call sys.exit
+        reason = plugin_failure(name, error)
+        if reason is None:
+            raise
+        failed = dict.fromkeys(("predicted_rmse", "spread", "coverage", "seconds"), math.nan)
+        row = {"order": order, "method": name, "package": methods.package_of(name)}
+        return {**row, **failed, "params": f"{FAILED}{reason}"}
+
+
+def _tuned_and_scored_row(name, order, tuning, scoring, max_evaluations, seed) -> dict:
     start = time.perf_counter()
     row = {"order": order, "method": name, "package": methods.package_of(name)}
     try:

@@ -5,6 +5,7 @@ correct result, and nothing stored lost."""
 import contextlib
 import json
 import os
+import re
 import resource
 import sqlite3
 import subprocess
@@ -13,6 +14,7 @@ import textwrap
 import uuid
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -460,3 +462,45 @@ def test_a_plugin_method_that_fails_while_tuned_is_one_line(tmp_path, plugin):
         "plugin bad_methods (dist none): method bad.raises: RuntimeError: "
         "the plugin's own bug (tuning it on paper-signal)",
     )
+
+
+def test_a_plugin_method_that_fails_in_recommend_is_named_not_a_traceback(tmp_path, plugin):
+    """The battery's case: a plugin raising, exiting or returning the wrong shape while
+    `recommend` tunes it stopped the command with a raw traceback; now its row says why, a
+    warning names the plugin, and the other methods are recommended as before."""
+    t = np.arange(400) * 2e-3
+    x = np.sin(2 * np.pi * 3 * t) + 0.01 * np.random.default_rng(0).standard_normal(t.size)
+    pd.DataFrame({"t": t, "x": x}).to_csv(tmp_path / "rec.csv", index=False)
+    names = "bad.raises,bad.exits,bad.shape,savitzky_golay"
+    result = _diffbench(
+        "recommend",
+        tmp_path / "rec.csv",
+        "--time",
+        "t",
+        "--plugin",
+        "bad_methods",
+        "--methods",
+        names,
+        "--orders",
+        "1",
+        "--budget",
+        "20",
+        "--no-progress",
+        "--out",
+        tmp_path / "out",
+        env=plugin,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "Traceback" not in result.stderr
+    ranking = (tmp_path / "out" / "ranking.md").read_text()
+    for name, reason in [
+        ("bad.raises", "RuntimeError: the plugin's own bug"),
+        ("bad.exits", "SystemExit: 5"),
+    ]:
+        named = f"plugin bad_methods (dist none): method {name}: {reason}"
+        assert f"diffbench: warning: {named}" in result.stderr
+        assert named in ranking
+    # a wrong shape is a ValueError, which the tuner reads as a setting that does not fit: its
+    # row says it was not tuned (not yet that the plugin's output was wrong)
+    assert re.search(r"\| bad\.shape +\| not tuned: ", ranking)
+    assert "x ẋ: savitzky_golay" in result.stdout
