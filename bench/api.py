@@ -193,13 +193,17 @@ def run(
     return RunResult(tunings, summary, runner.report_task(task, store, Path(out)))
 
 
+DEFAULT_CUTOFF_HZ = 20.0
+"""The data-only criteria's bandlimit guess when none is given (:func:`tune`)."""
+
+
 def tune(
     methods: str | Iterable[str],
     task: str,
     *,
     criteria: str | Iterable[str] = ("oracle",),
     orders: Iterable[int] = (2,),
-    cutoff_hz: float = 20.0,
+    cutoff_hz: float | None = None,
     tuning_seed: int = tuning.TUNING_SEED,
     tuning_seeds: int = 1,
     budget: int | None = None,
@@ -223,8 +227,9 @@ def tune(
         oracle, no-truth, pynumdiff, surrogate (see ``diffbench tune --help``).
     orders : iterable of int
         Derivatives tuned for.
-    cutoff_hz : float
-        Bandlimit guess of the data-only criteria, inside (0, Nyquist).
+    cutoff_hz : float, optional
+        Bandlimit guess of the data-only criteria (no-truth, pynumdiff), inside (0, Nyquist);
+        default :data:`DEFAULT_CUTOFF_HZ`. Refused when no criterion given reads it.
     tuning_seed, tuning_seeds : int
         The noise seeds tuned on: ``tuning_seed .. tuning_seed + tuning_seeds - 1`` (never
         scored).
@@ -242,7 +247,10 @@ def tune(
     """
     orders = check("orders", order_list, orders)
     criteria = check("criteria", criteria_list, criteria)
-    cutoff_hz = check("cutoff_hz", finite_positive, cutoff_hz)
+    given_cutoff = cutoff_hz is not None
+    cutoff_hz = check(
+        "cutoff_hz", finite_positive, DEFAULT_CUTOFF_HZ if cutoff_hz is None else cutoff_hz
+    )
     tuning_seed = check("tuning_seed", noise_seed, tuning_seed)
     tuning_seeds = check("tuning_seeds", tuning_seed_count, tuning_seeds)
     budget = None if budget is None else check("budget", positive_count, budget)
@@ -275,6 +283,11 @@ def tune(
             "knows no ends): use --criteria oracle or pynumdiff"
         )
     data_only = [c for c in criteria if c in tuning.DATA_ONLY_CRITERIA]  # need f_c
+    if given_cutoff and not data_only:
+        raise BadInput(
+            f"--cutoff-hz is read by the {' and '.join(tuning.DATA_ONLY_CRITERIA)} criteria "
+            f"only, not by {', '.join(criteria)}: drop it, or add one of them to --criteria"
+        )
     if data_only:
         realisation = task.tuning_data(0)
         for criterion in data_only:

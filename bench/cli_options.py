@@ -237,10 +237,10 @@ OPTIONS: dict[str, tuple[tuple[str, ...], dict[str, Any]]] = {
         ("--cutoff-hz",),
         dict(
             type=typed(finite_positive),
-            default=20.0,
+            default=None,
             help=(
                 "bandlimit guess of the no-truth and pynumdiff criteria, inside (0, "
-                "Nyquist) (default 20)"
+                "Nyquist) (default 20); refused with the other criteria, which do not read it"
             ),
         ),
     ),

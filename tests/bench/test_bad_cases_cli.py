@@ -144,6 +144,15 @@ def test_a_cutoff_below_what_the_record_resolves_or_at_nyquist_is_refused(tmp_pa
             "--cutoff-hz on paper-signal: `cutoff_hz` must lie in "
             "[1.427, 500) Hz for the no-truth criterion",
         )
+    # the oracle does not read a cutoff: one given with it only is refused, not ignored
+    result = _diffbench(
+        "tune", "kalman", "paper-signal", "--cutoff-hz", "1e-300", "--out", tmp_path
+    )
+    _one_error_line(
+        result,
+        "--cutoff-hz is read by the no-truth and pynumdiff criteria only, not by oracle: "
+        "drop it, or add one of them to --criteria",
+    )
     assert not Store(tmp_path / "store").tunings.records  # nothing stored as a tuning
 
 
