@@ -11,6 +11,7 @@ process is left behind); 141 when the reader of the output went away (``diffbenc
 from __future__ import annotations
 
 import argparse
+import errno
 import functools
 import os
 import signal
@@ -172,7 +173,7 @@ def _run(dispatch: Callable[[list[str]], None], argv: list[str]) -> int:
         dispatch(argv)
     except BadInput as error:
         message = str(error).splitlines()[0] if str(error) else "bad command line"
-        print(f"diffbench: error: {message}", file=sys.stderr)
+        _to_stderr(f"diffbench: error: {message}")
         return EXIT_USAGE
     except OSError as error:
         return _os_error(error)
@@ -181,15 +182,24 @@ def _run(dispatch: Callable[[list[str]], None], argv: list[str]) -> int:
         code = EXIT_INTERRUPTED if isinstance(stop, KeyboardInterrupt) else EXIT_TERMINATED
         resume = getattr(stop, "resume", None)
         default = "interrupted" if code == EXIT_INTERRUPTED else "terminated"
-        print(f"diffbench: {resume or default}", file=sys.stderr)
+        _to_stderr(f"diffbench: {resume or default}")
         return _flushed(code) if resume else code
     except WorkerDied as error:
-        print(f"diffbench: error: {error}", file=sys.stderr)
+        _to_stderr(f"diffbench: error: {error}")
         return EXIT_INTERNAL
     except SystemExit as stop:  # argparse's --help and errors, a plugin's sys.exit at import
         code = int(stop.code or 0) if not isinstance(stop.code, str) else EXIT_USAGE
         return _flushed(code)
     return _flushed(0)
+
+
+def _to_stderr(line: str) -> None:
+    """Print ``line`` on the standard error; where that fails too (``2>/dev/full``) there is
+    nowhere left to say it, and the exit code alone tells."""
+    try:
+        print(line, file=sys.stderr)
+    except OSError:
+        pass
 
 
 def _flushed(code: int) -> int:
@@ -216,7 +226,9 @@ def _os_error(error: OSError) -> int:
         _silence_stdout()  # so that Python's own flush at exit does not fail again
     where = f": {name}" if name is not None else " (writing a report or reading input)"
     reason = error.strerror or os.strerror(error.errno)
-    print(f"diffbench: error: {reason}{where}", file=sys.stderr)
+    if error.errno == errno.ENOTDIR:  # e.g. --out naming a file
+        reason += " (a file stands where the path needs a folder: give a folder, e.g. --out)"
+    _to_stderr(f"diffbench: error: {reason}{where}")
     return EXIT_USAGE
 
 

@@ -387,6 +387,39 @@ def test_a_full_disk_on_the_output_is_one_line(argv):
     _one_error_line(result, "No space left on device: the standard output")
 
 
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="no /dev/full on this system")
+def test_a_full_disk_on_the_error_output_leaves_the_exit_code(tmp_path):
+    """Nowhere to say it: the usage error's exit code alone (1 and a failed traceback
+    before)."""
+    with open("/dev/full", "w") as full:
+        result = subprocess.run(
+            [sys.executable, "-m", "diffbench.bench", "run", "nosuch", "--out", tmp_path],
+            stdout=subprocess.PIPE,
+            stderr=full,
+            text=True,
+            timeout=300,
+        )
+    assert result.returncode == 2
+
+
+def test_an_out_that_is_a_file_is_one_line_saying_so(tmp_path):
+    (tmp_path / "rec.csv").write_text("t,x\n")
+    result = _diffbench(
+        "run",
+        "paper-signal",
+        "--seeds",
+        "1",
+        "--methods",
+        "finite_difference",
+        "--no-progress",
+        "--out",
+        tmp_path / "rec.csv",
+    )
+    _one_error_line(
+        result, "a file stands where the path needs a folder: give a folder, e.g. --out"
+    )
+
+
 def test_the_file_size_limit_during_a_run_is_one_line_and_the_run_resumes(tmp_path):
     """128 kB holds the empty database (about 50 kB) and a few cells: the limit falls inside
     the run (the write-ahead log reaches it)."""
