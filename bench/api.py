@@ -338,9 +338,14 @@ def _tune(jobs_list, store: Store, jobs: Workers, progress: bool, echo: Echo | N
     except (KeyboardInterrupt, Terminated) as stop:
         stop.resume = "interrupted; finished tunings are stored; run the same command to resume"
         raise
-    except runner.PluginFailed as error:
-        raise BadInput(f"{error}; finished tunings are stored") from None
-    say(echo, f"{summary.computed} tunings computed, {summary.reused} reused from the store")
+    text = f"{summary.computed} tunings computed, {summary.reused} reused from the store"
+    if summary.failed:
+        text += f", {len(summary.failed)} failed (not stored; the next run tries them again)"
+    say(echo, text)
+    if summary.failed and not found:
+        raise BadInput(f"{summary.failed[0][1]}; nothing else to tune")
+    for _, reason in summary.failed:
+        warnings.warn(f"tuning failed: {reason}", DiffbenchWarning, stacklevel=3)
     return found, summary
 
 

@@ -313,7 +313,9 @@ def _store(store: Store, cell: Cell, scores, elapsed: float, same_as: str | None
     )
 
 
-def _tune(job: TuningJob) -> dict[str, Any] | None:
+def _tune(job: TuningJob) -> dict[str, Any] | Failed:
+    """The tuning record of ``job``, or :class:`Failed` when its method is a plugin's and
+    failed (an error of diffbench's own methods propagates)."""
     task = get_task(job.task)
     realisations = [task.tuning_data(seed) for seed in job.seeds]
     try:
@@ -322,12 +324,7 @@ def _tune(job: TuningJob) -> dict[str, Any] | None:
         reason = plugin_failure(job.method, error)
         if reason is None:
             raise
-        raise PluginFailed(f"{reason} (tuning it on {job.task})") from None
-
-
-class PluginFailed(Exception):
-    """A plugin's method failed where no failed cell can stand for it (a tuning): the
-    message names the plugin, its distribution and the error."""
+        return Failed(f"{reason} (tuning it on {job.task})")
 
 
 def _tuned(job: TuningJob, realisations) -> dict[str, Any] | None:
@@ -372,6 +369,9 @@ class TuningSummary:
     total: int = 0
     reused: int = 0
     computed: int = 0
+    failed: list[tuple[TuningJob, str]] = field(default_factory=list)
+    """The tunings of plugin methods that failed, and why: not stored, so the next call tries
+    them again; the others go on."""
 
 
 def tune_all(
@@ -380,7 +380,8 @@ def tune_all(
     """The stored tuning of every job, tuning (and storing) only those not stored yet.
 
     Returns ``{job: record}`` (``record["params"]`` is empty when the method could not be
-    tuned on the task) and what was reused or computed.
+    tuned on the task; a failed plugin's job is left out, see ``TuningSummary.failed``) and
+    what was reused or computed.
     """
     jobs_list = unique(jobs_list)
     store.refresh()
@@ -388,7 +389,12 @@ def tune_all(
     missing = [job for job, record in found.items() if record is None]
     results = ordered_map(_tune, missing, jobs)
     paired = zip(missing, results, strict=True)
+    failed = []
     for job, result in progress(paired, len(missing)) if progress else paired:
+        if isinstance(result, Failed):
+            failed.append((job, result.reason))
+            del found[job]
+            continue
         store.add_tuning(
             **job.fields(),
             params=result["params"],
@@ -397,7 +403,8 @@ def tune_all(
             seconds=result["seconds"],
         )
         found[job] = store.find_tuning(**job.fields())
-    summary = TuningSummary(len(jobs_list), len(jobs_list) - len(missing), len(missing))
+    computed = len(missing) - len(failed)
+    summary = TuningSummary(len(jobs_list), len(jobs_list) - len(missing), computed, failed)
     return found, summary
 
 

@@ -502,8 +502,31 @@ def test_a_plugin_method_that_fails_while_tuned_is_one_line(tmp_path, plugin):
     _one_error_line(
         result,
         "plugin bad_methods (dist none): method bad.raises: RuntimeError: "
-        "the plugin's own bug (tuning it on paper-signal)",
+        "the plugin's own bug (tuning it on paper-signal); nothing else to tune",
     )
+    # beside other methods it is a warning, and they are tuned, scored and reported (the
+    # battery's case: the whole tune stopped at it)
+    result = _diffbench(
+        "tune",
+        "bad.raises,finite_difference",
+        "paper-signal",
+        "--plugin",
+        "bad_methods",
+        "--seeds",
+        "2",
+        "--no-progress",
+        "--out",
+        tmp_path,
+        env=plugin,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "Traceback" not in result.stderr
+    assert (
+        "diffbench: warning: tuning failed: plugin bad_methods (dist none): method bad.raises: "
+        "RuntimeError: the plugin's own bug (tuning it on paper-signal)"
+    ) in result.stderr
+    assert "1 failed (not stored; the next run tries them again)" in result.stdout
+    assert "finite_difference" in (tmp_path / "paper-signal" / "rmse.md").read_text()
 
 
 def test_a_plugin_method_that_fails_in_recommend_is_named_not_a_traceback(tmp_path, plugin):
