@@ -187,7 +187,7 @@ def run(
     store = open_store(out)
     tunings = None
     if jobs_list:
-        found, tunings = _tune(jobs_list, store, jobs, progress, echo)
+        found, tunings = _tune(jobs_list, store, jobs, timeout_s, progress, echo)
         cells = task.plan(found, names, seed_list)
     summary = _run_cells(cells, store, jobs, timeout_s, progress, echo)
     return RunResult(tunings, summary, runner.report_task(task, store, Path(out)))
@@ -316,7 +316,7 @@ def tune(
                 for order in orders
             ]
     store = open_store(out)
-    found, tunings = _tune(jobs_list, store, jobs, progress, echo)
+    found, tunings = _tune(jobs_list, store, jobs, timeout_s, progress, echo)
     for job, record in found.items():
         chosen = ", ".join(f"{k}={v!r}" for k, v in record["params"].items())
         say(
@@ -330,10 +330,16 @@ def tune(
     return RunResult(tunings, summary, runner.report_task(task, store, Path(out)), found)
 
 
-def _tune(jobs_list, store: Store, jobs: Workers, progress: bool, echo: Echo | None):
+def _tune(
+    jobs_list, store: Store, jobs: Workers, timeout_s: float, progress: bool, echo: Echo | None
+):
     try:
         found, summary = runner.tune_all(
-            jobs_list, store, jobs=jobs, progress=progress_bar(progress, "tuning")
+            jobs_list,
+            store,
+            jobs=jobs,
+            progress=progress_bar(progress, "tuning"),
+            timeout_s=timeout_s,
         )
     except (KeyboardInterrupt, Terminated) as stop:
         stop.resume = "interrupted; finished tunings are stored; run the same command to resume"

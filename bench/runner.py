@@ -313,13 +313,20 @@ def _store(store: Store, cell: Cell, scores, elapsed: float, same_as: str | None
     )
 
 
-def _tune(job: TuningJob) -> dict[str, Any] | Failed:
-    """The tuning record of ``job``, or :class:`Failed` when its method is a plugin's and
-    failed (an error of diffbench's own methods propagates)."""
+def _tune(job: TuningJob, timeout_s: float | None = None) -> dict[str, Any] | Failed:
+    """The tuning record of ``job``, or :class:`Failed` when one call of its method outlived
+    ``timeout_s`` or its method is a plugin's and failed (an error of diffbench's own methods
+    propagates)."""
     task = get_task(job.task)
     realisations = [task.tuning_data(seed) for seed in job.seeds]
     try:
-        return _tuned(job, realisations)
+        return _tuned(job, realisations, timeout_s)
+    except CallTimeout:
+        label = plugin_label(job.method)
+        where = f"{label}: method {job.method}: " if label else f"method {job.method}: "
+        return Failed(
+            f"{where}a call timed out after {timeout_s:g} s (--timeout) (tuning it on {job.task})"
+        )
     except (Exception, SystemExit) as error:  # a plugin may call sys.exit
         reason = plugin_failure(job.method, error)
         if reason is None:
@@ -327,7 +334,7 @@ def _tune(job: TuningJob) -> dict[str, Any] | Failed:
         return Failed(f"{reason} (tuning it on {job.task})")
 
 
-def _tuned(job: TuningJob, realisations) -> dict[str, Any] | None:
+def _tuned(job: TuningJob, realisations, timeout_s: float | None) -> dict[str, Any] | None:
     try:
         result = tuning.tune(
             job.method,
@@ -337,6 +344,7 @@ def _tuned(job: TuningJob, realisations) -> dict[str, Any] | None:
             job.cutoff_hz,
             max_evaluations=job.budget,
             region=job.region,
+            timeout_s=timeout_s,
         )
     except search_space.NoRoomToTune as error:  # the method cannot cover the task at all
         return {
@@ -375,9 +383,14 @@ class TuningSummary:
 
 
 def tune_all(
-    jobs_list: Sequence[TuningJob], store: Store, jobs: int = 1, progress: Callable | None = None
+    jobs_list: Sequence[TuningJob],
+    store: Store,
+    jobs: int = 1,
+    progress: Callable | None = None,
+    timeout_s: float | None = None,
 ) -> tuple[dict[TuningJob, dict], TuningSummary]:
-    """The stored tuning of every job, tuning (and storing) only those not stored yet.
+    """The stored tuning of every job, tuning (and storing) only those not stored yet; each
+    call of a method limited to ``timeout_s``.
 
     Returns ``{job: record}`` (``record["params"]`` is empty when the method could not be
     tuned on the task; a failed plugin's job is left out, see ``TuningSummary.failed``) and
@@ -387,7 +400,7 @@ def tune_all(
     store.refresh()
     found = {job: store.find_tuning(**job.fields()) for job in jobs_list}
     missing = [job for job, record in found.items() if record is None]
-    results = ordered_map(_tune, missing, jobs)
+    results = ordered_map(functools.partial(_tune, timeout_s=timeout_s), missing, jobs)
     paired = zip(missing, results, strict=True)
     failed = []
     for job, result in progress(paired, len(missing)) if progress else paired:

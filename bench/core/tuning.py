@@ -38,6 +38,7 @@ import numpy as np
 from scipy import integrate, optimize
 
 from diffbench import methods
+from diffbench.bench.core.executor import call_timeout
 from diffbench.bench.core.roles import CRITERION_NAMES
 from diffbench.bench.core.scores import estimate_on, is_uniform
 from diffbench.bench.core.search_space import fitted_to_record, search_space, snap
@@ -225,6 +226,7 @@ def tune(
     max_evaluations: int | None = None,
     seed: int = 0,
     region: str = "interior",
+    timeout_s: float | None = None,
 ) -> TuningResult:
     r"""Tune method ``name`` for the derivative of ``order`` on one realisation (samples ``x``,
     step ``dt_s``, ``interior`` and, for the oracle, ``truth``) or a sequence of them.
@@ -248,6 +250,8 @@ def tune(
     150..400), or, with at most one other parameter, by a grid refined with Brent's method.
     On a narrow optimum (the spectral low-pass just passing the 15 Hz line of the paper
     signal) the default budget can stop short: `make bench` gives the 10-seed tunings 400.
+    ``timeout_s`` bounds each call of the method (:func:`~diffbench.bench.core.executor.
+    call_timeout`): one that outlives it raises ``CallTimeout`` out of the search.
     """
     if hasattr(realisations, "x"):
         realisations = (realisations,)
@@ -330,9 +334,10 @@ def tune(
         """The loss of ``params`` on realisation ``k``."""
         x, inside = samples[k], scored[k]
         try:
-            estimate = estimate_on(
-                cls(**params), realisations[k], x, orders=(order,), reads=reads[k]
-            )
+            with call_timeout(timeout_s):  # CallTimeout: the caller's to report
+                estimate = estimate_on(
+                    cls(**params), realisations[k], x, orders=(order,), reads=reads[k]
+                )
         except ValueError:
             return math.inf
         # the interior must be trusted; otherwise the samples scored estimated, trusted or not

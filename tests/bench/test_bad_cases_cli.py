@@ -529,6 +529,31 @@ def test_a_plugin_method_that_fails_while_tuned_is_one_line(tmp_path, plugin):
     assert "finite_difference" in (tmp_path / "paper-signal" / "rmse.md").read_text()
 
 
+def test_a_plugin_method_that_never_returns_while_tuned_times_out(tmp_path, plugin):
+    """The battery's case: --timeout bounded cells but not the calls inside a tuning, so a
+    hanging plugin held `tune` forever; each call is bounded now."""
+    result = _diffbench(
+        "tune",
+        "bad.hangs,finite_difference",
+        "paper-signal",
+        "--plugin",
+        "bad_methods",
+        "--timeout",
+        "2",
+        "--seeds",
+        "1",
+        "--no-progress",
+        "--out",
+        tmp_path,
+        env=plugin,
+    )
+    assert result.returncode == 0, result.stderr
+    assert (
+        "diffbench: warning: tuning failed: plugin bad_methods (dist none): method bad.hangs: "
+        "a call timed out after 2 s (--timeout) (tuning it on paper-signal)"
+    ) in result.stderr
+
+
 def test_a_plugin_method_that_fails_in_recommend_is_named_not_a_traceback(tmp_path, plugin):
     """The battery's case: a plugin raising, exiting or returning the wrong shape while
     `recommend` tunes it stopped the command with a raw traceback; now its row says why, a
