@@ -250,8 +250,9 @@ def tune(
     150..400), or, with at most one other parameter, by a grid refined with Brent's method.
     On a narrow optimum (the spectral low-pass just passing the 15 Hz line of the paper
     signal) the default budget can stop short: `make bench` gives the 10-seed tunings 400.
-    ``timeout_s`` bounds each call of the method (:func:`~diffbench.bench.core.executor.
-    call_timeout`): one that outlives it raises ``CallTimeout`` out of the search.
+    ``timeout_s`` bounds each call of the method
+    (:func:`~diffbench.bench.core.executor.call_timeout`): one that outlives it raises
+    ``CallTimeout`` out of the search.
     """
     if hasattr(realisations, "x"):
         realisations = (realisations,)
