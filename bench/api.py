@@ -546,6 +546,7 @@ def recommend(
     budget: int | None = None,
     out: Path | None = None,
     jobs: Workers = 1,
+    timeout_s: float = runner.DEFAULT_TIMEOUT_S,
     progress: bool = False,
 ) -> Recommendation:
     """Which method, with which settings, for a user's record (a ``.csv`` or ``.parquet`` file,
@@ -554,8 +555,11 @@ def recommend(
     scoring one method for one order (the same recommendation as one process); ``progress``:
     a bar per channel on stderr, with its time left. ``methods``: names or groups (default
     ``native``); ``causal``: for online use, among the causal methods only (default all of
-    them: the estimate at t from the samples up to t, scored as they run on a stream)."""
+    them: the estimate at t from the samples up to t, scored as they run on a stream).
+    ``timeout_s`` bounds each call of a method: one that outlives it is reported in its row
+    and the ranking goes on."""
     orders = check("orders", order_list, orders)
+    timeout_s = check("timeout_s", timeout, timeout_s)
     jobs = ready(jobs)
     budget = None if budget is None else check("budget", positive_count, budget)
     columns = None if columns is None else check("columns", name_list, columns)
@@ -583,6 +587,7 @@ def recommend(
             max_evaluations=budget,
             jobs=jobs,
             progress=progress_bar(progress, "tuning"),
+            timeout_s=timeout_s,
         )
     out = recommend_out(file, out)
     best = {

@@ -38,7 +38,7 @@ import pandas as pd
 
 from diffbench import methods
 from diffbench.bench.core import executor
-from diffbench.bench.core.errors import DiffbenchWarning, plugin_failure
+from diffbench.bench.core.errors import DiffbenchWarning, plugin_failure, plugin_label
 from diffbench.bench.core.scores import error_metrics
 from diffbench.bench.core.spectrum import RecordSpectrum, record_spectrum
 from diffbench.bench.core.surrogates import default_scored, surrogate_records
@@ -117,6 +117,7 @@ def recommend(
     scored: np.ndarray | None = None,
     jobs: executor.Workers = 1,
     progress=None,
+    timeout_s: float | None = None,
 ) -> Recommendation:
     """Recommend a method and its settings for the derivatives of ``orders`` of the 1-D
     record ``x`` sampled every ``dt`` seconds (see the module docstring).
@@ -127,7 +128,8 @@ def recommend(
     and last 5 %). Each (method, order) is tuned and scored on its own, on ``jobs`` local
     processes or Dask workers (:mod:`~diffbench.bench.core.executor`; the same result as one
     process: each tuning is seeded by ``seed`` alone); ``progress(iterable, total)`` wraps
-    their results as they arrive (a progress bar).
+    their results as they arrive (a progress bar); ``timeout_s`` bounds each call of a method
+    (a method that outlives it gets a row saying so, as a failed plugin does).
     """
     samples = np.asarray(x, dtype=np.float64)
     if samples.ndim != 1:
@@ -151,6 +153,7 @@ def recommend(
         scoring=scoring,
         max_evaluations=max_evaluations,
         seed=seed,
+        timeout_s=timeout_s,
     )
     rows = executor.ordered_map(work, pairs, jobs)
     if progress is not None:
@@ -189,30 +192,34 @@ def scaled_estimate(estimate: methods.Estimate, scale: float) -> methods.Estimat
     return methods.Estimate(values, dict(estimate.valid))
 
 
-def _tuned_and_scored_pair(pair, tuning, scoring, max_evaluations, seed) -> dict:
+def _tuned_and_scored_pair(pair, tuning, scoring, max_evaluations, seed, timeout_s) -> dict:
     """:func:`_tuned_and_scored` of one ``(method name, order)``: the unit of work a worker
     takes."""
     name, order = pair
-    return _tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed)
+    return _tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed, timeout_s)
 
 
-def _tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed) -> dict:
+def _tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed, timeout_s) -> dict:
     """The row of ``name`` for ``order``: tuned on the ``tuning`` surrogates, scored on the
     ``scoring`` ones. A method that cannot be tuned, and a plugin method that fails (an
     exception, a wrong output: :func:`~diffbench.bench.core.errors.plugin_failure`), gets a
     row saying why instead of a score; diffbench's own methods' other errors propagate."""
     try:
-        return _tuned_and_scored_row(name, order, tuning, scoring, max_evaluations, seed)
+        return _tuned_and_scored_row(name, order, tuning, scoring, max_evaluations, seed, timeout_s)
+    except executor.CallTimeout:
+        label = plugin_label(name)
+        reason = f"{label + ': ' if label else ''}method {name}: a call timed out after "
+        reason += f"{timeout_s:g} s (--timeout)"
     except (Exception, SystemExit) as error:  # a plugin may call sys.exit
         reason = plugin_failure(name, error)
         if reason is None:
             raise
-        failed = dict.fromkeys(("predicted_rmse", "spread", "coverage", "seconds"), math.nan)
-        row = {"order": order, "method": name, "package": methods.package_of(name)}
-        return {**row, **failed, "params": f"{FAILED}{reason}"}
+    failed = dict.fromkeys(("predicted_rmse", "spread", "coverage", "seconds"), math.nan)
+    row = {"order": order, "method": name, "package": methods.package_of(name)}
+    return {**row, **failed, "params": f"{FAILED}{reason}"}
 
 
-def _tuned_and_scored_row(name, order, tuning, scoring, max_evaluations, seed) -> dict:
+def _tuned_and_scored_row(name, order, tuning, scoring, max_evaluations, seed, timeout_s):
     start = time.perf_counter()
     row = {"order": order, "method": name, "package": methods.package_of(name)}
     try:
@@ -224,6 +231,7 @@ def _tuned_and_scored_row(name, order, tuning, scoring, max_evaluations, seed) -
             max_evaluations=max_evaluations,
             seed=seed,
             region=REGION,
+            timeout_s=timeout_s,
         )
         if not math.isfinite(result.loss):
             raise ValueError(
@@ -242,7 +250,8 @@ def _tuned_and_scored_row(name, order, tuning, scoring, max_evaluations, seed) -
     errors, coverage = [], []
     for realisation in scoring:
         try:
-            estimate = method(realisation.x, realisation.dt_s, (order,))
+            with executor.call_timeout(timeout_s):
+                estimate = method(realisation.x, realisation.dt_s, (order,))
         except ValueError:
             errors.append(math.inf)
             continue
@@ -264,7 +273,14 @@ def _tuned_and_scored_row(name, order, tuning, scoring, max_evaluations, seed) -
 
 
 def recommend_record(
-    record, names=None, orders=(1, 2), seed=0, max_evaluations=None, jobs=1, progress=None
+    record,
+    names=None,
+    orders=(1, 2),
+    seed=0,
+    max_evaluations=None,
+    jobs=1,
+    progress=None,
+    timeout_s=None,
 ):
     """:func:`recommend` for each channel of a
     :class:`~diffbench.bench.studies.user_data.UserRecord`, and the best method's estimates on
@@ -272,8 +288,8 @@ def recommend_record(
     runs on the record resampled, as a resampled method's is, onto the grid of its span with the
     step nearest its nominal one), computed on the channel divided by the recommendation's
     ``scale`` and scaled back. Returns ``{channel: (Recommendation, {order: Estimate})}``; a
-    ``ValueError`` when no method could be recommended for an order. ``jobs``, ``progress``:
-    as for :func:`recommend`.
+    ``ValueError`` when no method could be recommended for an order. ``jobs``, ``progress``,
+    ``timeout_s``: as for :func:`recommend`.
     """
     irregular = record.t is not None and not record.uniform
     if irregular:  # onto the grid a resampled method would use (methods._time_stamps)
@@ -293,6 +309,7 @@ def recommend_record(
                 max_evaluations,
                 jobs=jobs,
                 progress=progress,
+                timeout_s=timeout_s,
             )
             estimates = {}
             for order in orders:

@@ -594,3 +594,37 @@ def test_a_plugin_method_that_fails_in_recommend_is_named_not_a_traceback(tmp_pa
     # row says it was not tuned (not yet that the plugin's output was wrong)
     assert re.search(r"\| bad\.shape +\| not tuned: ", ranking)
     assert "x ẋ: savitzky_golay" in result.stdout
+
+
+def test_a_plugin_method_that_never_returns_in_recommend_times_out(tmp_path, plugin):
+    """The battery's case: a hanging plugin held `recommend` forever (it had no --timeout)."""
+    t = np.arange(400) * 2e-3
+    x = np.sin(2 * np.pi * 3 * t) + 0.01 * np.random.default_rng(0).standard_normal(t.size)
+    pd.DataFrame({"t": t, "x": x}).to_csv(tmp_path / "rec.csv", index=False)
+    result = _diffbench(
+        "recommend",
+        tmp_path / "rec.csv",
+        "--time",
+        "t",
+        "--plugin",
+        "bad_methods",
+        "--methods",
+        "bad.hangs,savitzky_golay",
+        "--orders",
+        "1",
+        "--budget",
+        "20",
+        "--timeout",
+        "2",
+        "--no-progress",
+        "--out",
+        tmp_path / "out",
+        env=plugin,
+    )
+    assert result.returncode == 0, result.stderr
+    named = (
+        "plugin bad_methods (dist none): method bad.hangs: a call timed out after 2 s (--timeout)"
+    )
+    assert f"diffbench: warning: {named}" in result.stderr
+    assert named in (tmp_path / "out" / "ranking.md").read_text()
+    assert "x ẋ: savitzky_golay" in result.stdout
