@@ -28,6 +28,7 @@ from diffbench.bench.core.errors import (
     DiffbenchWarning,
     plugin_failure,
     plugin_label,
+    timeout_failure,
 )
 from diffbench.bench.core.executor import CallTimeout, call_timeout, completed_map, ordered_map
 from diffbench.bench.core.plan import (
@@ -322,11 +323,7 @@ def _tune(job: TuningJob, timeout_s: float | None = None) -> dict[str, Any] | Fa
     try:
         return _tuned(job, realisations, timeout_s)
     except CallTimeout:
-        label = plugin_label(job.method)
-        where = f"{label}: method {job.method}: " if label else f"method {job.method}: "
-        return Failed(
-            f"{where}a call timed out after {timeout_s:g} s (--timeout) (tuning it on {job.task})"
-        )
+        return Failed(f"{timeout_failure(job.method, timeout_s)} (tuning it on {job.task})")
     except (Exception, SystemExit) as error:  # a plugin may call sys.exit
         reason = plugin_failure(job.method, error)
         if reason is None:

@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from diffbench.methods import _fft
+from diffbench.methods._fir import central_mask
 from diffbench.methods._registry import Method, Preset, param, register
 from diffbench.methods._validation import check_frequency
 
@@ -561,8 +562,6 @@ class Spectral(Method):
             self.end_rolloff,
         )
         n = x.shape[0]
-        masked = min(ringing, (n - 1) // 4)  # a record shorter than 4 reaches: its middle half
-        trusted = np.ones(n, dtype=bool)
-        trusted[:masked] = False
-        trusted[n - masked :] = False
+        # a record shorter than 4 reaches: its middle half
+        trusted = central_mask(n, min(ringing, (n - 1) // 4))
         return values, {order: trusted.copy() for order in orders}

@@ -55,3 +55,11 @@ def plugin_failure(method: str, error: BaseException) -> str | None:
     text = str(error).strip().splitlines()
     detail = f"{type(error).__name__}: {text[0]}" if text else type(error).__name__
     return f"{label}: method {method}: {detail}"
+
+
+def timeout_failure(method: str, seconds: float) -> str:
+    """``"[plugin MODULE (dist ...): ]method M: a call timed out after S s (--timeout)"``: a
+    call of ``method`` inside a tuning or a recommendation that outlived ``seconds``."""
+    label = plugin_label(method)
+    where = f"{label}: " if label else ""
+    return f"{where}method {method}: a call timed out after {seconds:g} s (--timeout)"

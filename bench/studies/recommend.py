@@ -38,7 +38,7 @@ import pandas as pd
 
 from diffbench import methods
 from diffbench.bench.core import executor
-from diffbench.bench.core.errors import DiffbenchWarning, plugin_failure, plugin_label
+from diffbench.bench.core.errors import DiffbenchWarning, plugin_failure, timeout_failure
 from diffbench.bench.core.scores import error_metrics
 from diffbench.bench.core.spectrum import RecordSpectrum, record_spectrum
 from diffbench.bench.core.surrogates import default_scored, surrogate_records
@@ -207,9 +207,7 @@ def _tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed, timeo
     try:
         return _tuned_and_scored_row(name, order, tuning, scoring, max_evaluations, seed, timeout_s)
     except executor.CallTimeout:
-        label = plugin_label(name)
-        reason = f"{label + ': ' if label else ''}method {name}: a call timed out after "
-        reason += f"{timeout_s:g} s (--timeout)"
+        reason = timeout_failure(name, timeout_s)
     except (Exception, SystemExit) as error:  # a plugin may call sys.exit
         reason = plugin_failure(name, error)
         if reason is None:

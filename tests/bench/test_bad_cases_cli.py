@@ -554,15 +554,13 @@ def test_a_plugin_method_that_never_returns_while_tuned_times_out(tmp_path, plug
     ) in result.stderr
 
 
-def test_a_plugin_method_that_fails_in_recommend_is_named_not_a_traceback(tmp_path, plugin):
-    """The battery's case: a plugin raising, exiting or returning the wrong shape while
-    `recommend` tunes it stopped the command with a raw traceback; now its row says why, a
-    warning names the plugin, and the other methods are recommended as before."""
+def _recommend_with_plugin(tmp_path, plugin, names: str, *options):
+    """`recommend` on a 400-sample noisy sine (2 ms stamps) among ``names``, the test plugin
+    loaded; its ranking goes to ``tmp_path/out``."""
     t = np.arange(400) * 2e-3
     x = np.sin(2 * np.pi * 3 * t) + 0.01 * np.random.default_rng(0).standard_normal(t.size)
     pd.DataFrame({"t": t, "x": x}).to_csv(tmp_path / "rec.csv", index=False)
-    names = "bad.raises,bad.exits,bad.shape,savitzky_golay"
-    result = _diffbench(
+    return _diffbench(
         "recommend",
         tmp_path / "rec.csv",
         "--time",
@@ -575,11 +573,20 @@ def test_a_plugin_method_that_fails_in_recommend_is_named_not_a_traceback(tmp_pa
         "1",
         "--budget",
         "20",
+        *options,
         "--no-progress",
         "--out",
         tmp_path / "out",
         env=plugin,
     )
+
+
+def test_a_plugin_method_that_fails_in_recommend_is_named_not_a_traceback(tmp_path, plugin):
+    """The battery's case: a plugin raising, exiting or returning the wrong shape while
+    `recommend` tunes it stopped the command with a raw traceback; now its row says why, a
+    warning names the plugin, and the other methods are recommended as before."""
+    names = "bad.raises,bad.exits,bad.shape,savitzky_golay"
+    result = _recommend_with_plugin(tmp_path, plugin, names)
     assert result.returncode == 0, result.stderr
     assert "Traceback" not in result.stderr
     ranking = (tmp_path / "out" / "ranking.md").read_text()
@@ -598,29 +605,7 @@ def test_a_plugin_method_that_fails_in_recommend_is_named_not_a_traceback(tmp_pa
 
 def test_a_plugin_method_that_never_returns_in_recommend_times_out(tmp_path, plugin):
     """The battery's case: a hanging plugin held `recommend` forever (it had no --timeout)."""
-    t = np.arange(400) * 2e-3
-    x = np.sin(2 * np.pi * 3 * t) + 0.01 * np.random.default_rng(0).standard_normal(t.size)
-    pd.DataFrame({"t": t, "x": x}).to_csv(tmp_path / "rec.csv", index=False)
-    result = _diffbench(
-        "recommend",
-        tmp_path / "rec.csv",
-        "--time",
-        "t",
-        "--plugin",
-        "bad_methods",
-        "--methods",
-        "bad.hangs,savitzky_golay",
-        "--orders",
-        "1",
-        "--budget",
-        "20",
-        "--timeout",
-        "2",
-        "--no-progress",
-        "--out",
-        tmp_path / "out",
-        env=plugin,
-    )
+    result = _recommend_with_plugin(tmp_path, plugin, "bad.hangs,savitzky_golay", "--timeout", "2")
     assert result.returncode == 0, result.stderr
     named = (
         "plugin bad_methods (dist none): method bad.hangs: a call timed out after 2 s (--timeout)"
