@@ -230,16 +230,17 @@ def _check_gaps(path, name, times, steps, median) -> str:
 
 
 def _time_like_channels(path: Path, columns: list[str], x: np.ndarray) -> list[str]:
-    """Notes on channels that rise by even steps, as time stamps do: without ``--time`` a time
-    column is differentiated as data (its derivative the constant 1/step, ranked beside the
-    real channels) and the other channels are taken as evenly spaced, gaps or not."""
+    """Notes on channels that rise at every row and are named like time (:data:`TIME_NAMES`)
+    or rise by even steps (:func:`~diffbench.methods.is_uniform`), as time stamps do: without
+    ``--time`` a time column is differentiated as data (its derivative the constant 1/step,
+    ranked beside the real channels) and the other channels are taken as evenly spaced, gaps
+    or not."""
     notes = []
     for k, name in enumerate(columns):
-        steps = np.diff(x[:, k])
-        if not np.all(steps > 0):
+        if not np.all(np.diff(x[:, k]) > 0):
             continue
-        even = np.all(np.abs(steps - steps.mean()) <= 1e-6 * steps.mean())
-        if even or name.casefold() in TIME_NAMES or name.casefold().startswith("time"):
+        named = name.casefold() in TIME_NAMES or name.casefold().startswith("time")
+        if named or is_uniform(x[:, k]):
             notes.append(
                 f"{path}: column {name!r} increases at every row, like time stamps, and is "
                 f"differentiated as a channel, the others taken as evenly spaced; if it is "
