@@ -71,8 +71,9 @@ MAX_TIMEOUT_S = 7 * 24 * 3600.0
 
 @dataclass(frozen=True)
 class Failed:
-    """A cell whose computation failed without it being diffbench's bug: it outlived the
-    timeout, or a plugin's method raised (or gave output the contract refuses)."""
+    """A cell or a tuning whose computation failed without it being diffbench's bug: it (a
+    call in it) outlived the timeout, or a plugin's method raised (or gave output the
+    contract refuses)."""
 
     reason: str
 
