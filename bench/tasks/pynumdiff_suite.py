@@ -55,14 +55,17 @@ class PyNumDiffSuite(ItemStudy):
         items = []
         for record in self.records:
             for name in self.lineup_names(method_names):
+                # an oracle's item names the seeds it is tuned on: a store written when it was
+                # tuned on one seed is not read as the same item
+                oracle = {"source": ORACLE, "seeds": count, "tuning_seeds": suite.TUNING_SEEDS}
                 if suite.is_native(name):
-                    items.append(Item(record, {"method": name, "source": ORACLE, "seeds": count}))
+                    items.append(Item(record, {"method": name, **oracle}))
                     continue
                 for params in suite.TEST_SETTINGS.get(name, []):
                     setting = {"method": name, "source": TESTS, "params": params, "seeds": count}
                     items.append(Item(record, setting))
                 if self.tune_peers or name not in suite.TEST_SETTINGS:
-                    items.append(Item(record, {"method": name, "source": ORACLE, "seeds": count}))
+                    items.append(Item(record, {"method": name, **oracle}))
         return items
 
     def compute(self, item):
