@@ -227,6 +227,7 @@ def tune(
     seed: int = 0,
     region: str = "interior",
     timeout_s: float | None = None,
+    screen_choices: int | None = None,
 ) -> TuningResult:
     r"""Tune method ``name`` for the derivative of ``order`` on one realisation (samples ``x``,
     step ``dt_s``, ``interior`` and, for the oracle, ``truth``) or a sequence of them.
@@ -252,7 +253,9 @@ def tune(
     signal) the default budget can stop short: `make bench` gives the 10-seed tunings 400.
     ``timeout_s`` bounds each call of the method
     (:func:`~diffbench.bench.core.executor.call_timeout`): one that outlives it raises
-    ``CallTimeout`` out of the search.
+    ``CallTimeout`` out of the search. ``screen_choices``: with more combinations of the
+    choice parameters than this, each is screened by one generation of its evolution and only
+    this many best go on (:func:`_evolution_per_choice`); default every combination.
     """
     if hasattr(realisations, "x"):
         realisations = (realisations,)
@@ -397,7 +400,9 @@ def tune(
     if len(searched) <= 1:
         best = _grid_and_brent(dimensions, loss, params_of)
     else:
-        best = _evolution_per_choice(dimensions, loss, params_of, max_evaluations, seed)
+        best = _evolution_per_choice(
+            dimensions, loss, params_of, max_evaluations, seed, screen_choices
+        )
     value = cache.get(tuple(sorted(best.items())), math.inf) if best else loss([])
     return TuningResult(
         method=name,
@@ -432,14 +437,21 @@ def _surrogates(realisations, seed: int) -> list:
     return drawn
 
 
-def _evolution_per_choice(dimensions, loss, params_of, max_evaluations, seed) -> dict[str, Any]:
+def _evolution_per_choice(
+    dimensions, loss, params_of, max_evaluations, seed, keep: int | None = None
+) -> dict[str, Any]:
     """Every combination of the choice parameters; for each, differential evolution over the
     others (integers through ``integrality``), each run with the full budget (default 100 per
     searched parameter, within 150..400). The best combination wins; the first on a tie.
 
     One evolution over choices and numbers together spends its few generations on one region
     and can miss a choice that only pays with other numbers (the spectral method's edge
-    treatment on the whole record: extension and fit_degree with the cutoff)."""
+    treatment on the whole record: extension and fit_degree with the cutoff).
+
+    With ``keep`` (and more combinations than that), each combination first gets one
+    generation of its evolution, and only the ``keep`` best go on to the full budget: their
+    first generation is the same one again (the same seed), read from the loss's cache, so a
+    screened combination costs about two generations instead of all of them."""
     choice_index = [i for i, d in enumerate(dimensions) if d.kind == "choice"]
     free = [i for i, d in enumerate(dimensions) if d.kind != "choice"]
     bounds = [dimensions[i].bounds() for i in free]
@@ -449,11 +461,11 @@ def _evolution_per_choice(dimensions, loss, params_of, max_evaluations, seed) ->
     # a Sobol initial population is rounded up to a power of two: count what is evaluated
     population = 2 ** math.ceil(math.log2(popsize * len(free)))
     generations = max(2, budget // population - 1)
-    best_vector, best_value = None, math.inf
     options = [range(len(dimensions[i].choices)) for i in choice_index]
-    for combination in itertools.product(*options):
+    combinations = list(itertools.product(*options))
 
-        def assemble(values, combination=combination) -> list[float]:
+    def evolve(combination, maxiter: int) -> tuple[list[float], float]:
+        def assemble(values) -> list[float]:
             vector = [0.0] * len(dimensions)
             for index, value in zip(choice_index, combination, strict=True):
                 vector[index] = float(value)
@@ -462,19 +474,27 @@ def _evolution_per_choice(dimensions, loss, params_of, max_evaluations, seed) ->
             return vector
 
         result = optimize.differential_evolution(
-            lambda values, assemble=assemble: loss(assemble(values)),
+            lambda values: loss(assemble(values)),
             bounds,
             integrality=integrality,
             seed=seed,
             popsize=popsize,
-            maxiter=generations,
+            maxiter=maxiter,
             tol=1e-4,
             polish=False,
             init="sobol",
             updating="deferred",
         )
         vector = assemble(list(result.x))
-        value = loss(vector)
+        return vector, loss(vector)
+
+    if keep is not None and len(combinations) > keep:
+        screened = [evolve(combination, 1)[1] for combination in combinations]
+        order = sorted(range(len(combinations)), key=lambda k: screened[k])[:keep]
+        combinations = [combinations[k] for k in sorted(order)]
+    best_vector, best_value = None, math.inf
+    for combination in combinations:
+        vector, value = evolve(combination, generations)
         if value < best_value or best_vector is None:
             best_vector, best_value = vector, value
     return params_of(best_vector)

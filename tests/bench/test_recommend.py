@@ -1,6 +1,8 @@
 """Data-only recommendation: surrogates with known truth drawn from a record's spectrum, and
 the method they recommend scored against the real truth."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -251,3 +253,40 @@ def test_recommend_on_a_short_record_ranks_methods_and_is_not_too_hopeful(sample
         estimate = methods.get(name, **params)(x, dt, (order,))
         true = error_metrics(estimate[order], truth[order], scored)["rmse"]
         assert 0 < predicted and true <= 3 * predicted, (order, name, true, predicted)
+
+
+def test_a_long_record_is_tuned_on_the_middle_of_its_surrogates(monkeypatch):
+    """A tuning surrogate of a record longer than its tuning length is cut to its middle
+    samples, scored as far from the cut's ends as the record's scored samples are from the
+    record's; the scoring surrogates, and so the prediction, stay whole."""
+    from diffbench.bench.studies import recommend as module
+
+    record = signals.get_scenario("paper-signal-4937ms").realise(0)
+    n = record.x.size
+    assert module.tuning_length(15.0, 1e-3) == max(module.TUNING_SAMPLES, 2000)
+    assert module.tuning_length(1.0, 1e-3) == 30_000  # 30 periods of 1 Hz
+    surrogate = dataclasses.replace(record, interior=default_scored(n))
+    cut = module.middle_segment(surrogate, 2048)
+    start = (n - 2048) // 2
+    np.testing.assert_array_equal(cut.x, record.x[start : start + 2048])
+    np.testing.assert_array_equal(cut.t, record.t[start : start + 2048])
+    for order in (0, 1, 2):
+        np.testing.assert_array_equal(cut.truth[order], record.truth[order][start : start + 2048])
+    margin = int(0.05 * n)
+    expected = np.zeros(2048, dtype=bool)
+    expected[margin : 2048 - margin] = True
+    np.testing.assert_array_equal(cut.interior, expected)
+    assert module.middle_segment(surrogate, n) is surrogate  # not longer: as it is
+
+    lengths = []
+
+    def recording_tune(name, realisations, *args, **kwargs):
+        lengths.extend(r.x.size for r in realisations)
+        return tune(name, realisations, *args, **kwargs)
+
+    monkeypatch.setattr(module, "tune", recording_tune)
+    result = recommend(record.x, record.dt_s, ["savitzky_golay"], orders=(1,))
+    band = result.spectrum.band_hz
+    assert lengths == [module.tuning_length(band, record.dt_s)] * module.TUNING_SURROGATES
+    assert lengths[0] < n
+    assert np.isfinite(result.table["predicted_rmse"]).all()

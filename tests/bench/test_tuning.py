@@ -548,3 +548,24 @@ def test_a_window_the_order_tuned_does_not_read_is_fitted_to_a_short_record():
     assert math.isfinite(result.loss)
     assert 0.04 <= result.params["accel_window_s"] <= 0.05
     assert methods.get("jacobi", **result.params)(realisation.x, 0.01, (1,)).estimated(1).all()
+
+
+def test_screening_the_choices_keeps_the_best_and_tunes_it_as_in_full():
+    """With ``screen_choices=1`` each mode gets one generation and only the best ('b', whose
+    offset is 0 against 1 for the others) is tuned in full: the same setting and loss as the
+    full tuning of every mode (the same seeded evolution for 'b'), for fewer evaluations:
+    two generations of the others' (the Sobol start and one) instead of all six."""
+    full = tuning.tune("_test_gain", _known_problem(), 1, "oracle")
+    screened = tuning.tune("_test_gain", _known_problem(), 1, "oracle", screen_choices=1)
+    assert screened.params == full.params and screened.loss == full.loss
+    assert screened.params["mode"] == "b"
+    population, generations = 32, 5  # 2 free parameters: popsize 15, rounded up to 2^5
+    assert screened.evaluations <= 3 * 2 * population + (generations - 1) * population
+    assert screened.evaluations < full.evaluations
+    # keeping at least as many as there are choices is the full tuning
+    every = tuning.tune("_test_gain", _known_problem(), 1, "oracle", screen_choices=3)
+    assert (every.params, every.loss, every.evaluations) == (
+        full.params,
+        full.loss,
+        full.evaluations,
+    )
