@@ -94,11 +94,11 @@ def _tuned_jobs(found: Mapping[TuningJob, dict]) -> list[TuningJob]:
 
 def scored_rmse(rows: pd.DataFrame, order: int, region: str) -> pd.DataFrame:
     """The RMSE rows of the derivative of ``order`` on ``region`` of the entries tuned for it:
-    what :func:`winners`, :func:`regrets` and :func:`causal_price` compare. On ``"valid"`` (the
-    whole record) only the entries covering it (``WHOLE_COVERAGE["valid"]``,
-    :mod:`diffbench.bench.report.tables`) on every seed."""
-    if region == "valid":
-        rows = tables.covering_whole(rows, order, keys=("method", "params"), region="valid")
+    what :func:`winners`, :func:`regrets` and :func:`causal_price` compare. On ``"whole"``
+    (every sample, as estimated, trusted or not) only the entries estimating every sample
+    (``WHOLE_COVERAGE["whole"]``, :mod:`diffbench.bench.report.tables`) on every seed."""
+    if region == "whole":
+        rows = tables.covering_whole(rows, order, keys=("method", "params"), region="whole")
     tuned_for = (rows["tuned_order"] == order).fillna(False).astype(bool)
     return rows[
         tuned_for
@@ -120,13 +120,15 @@ def winners(rows: pd.DataFrame, order: int = 2, region: str = "interior") -> pd.
     smallest difference it detects 80 % of the time; ``vanishing`` names a disturbance that
     aliases away at the step (no winner is named when nothing is left of the noise).
 
-    ``region`` is ``"interior"`` (the samples every method is scored on) or ``"valid"`` (the
-    whole record: each entry's own valid samples, entries covering less than
-    ``WHOLE_COVERAGE["valid"]`` (:mod:`diffbench.bench.report.tables`) of it on some seed left
-    out).
+    ``region`` is ``"interior"`` (the samples every method is scored on) or ``"whole"`` (every
+    sample of the record as the entry estimates it, trusted or not; entries that leave a
+    sample unestimated on some seed left out). The whole record was once ranked on each
+    entry's own valid samples among the entries marking 99 % of them valid: a method that
+    marks its weaker end samples honestly (``spectral``'s taper) was then left out, and one
+    that marks nothing (a peer's) ranked on its worst samples as if trusted.
     """
-    if region not in ("interior", "valid"):
-        raise ValueError(f"`region` must be 'interior' or 'valid', got {region!r}")
+    if region not in ("interior", "whole"):
+        raise ValueError(f"`region` must be 'interior' or 'whole', got {region!r}")
     scored = scored_rmse(rows, order, region)
     records = []
     for kind, level, step, name in _grid_tasks():
@@ -176,7 +178,7 @@ def packages_line(rows: pd.DataFrame) -> str:
     return ", ".join(f"{m} ({p})" for m, p in zip(pairs["method"], pairs["package"], strict=True))
 
 
-REGION_COLUMNS = {"interior": "interior", "valid": "whole"}
+REGION_COLUMNS = {"interior": "interior", "whole": "whole"}
 
 
 def _winner_text(row) -> str:
@@ -253,7 +255,7 @@ def regrets(rows: pd.DataFrame, order: int, region: str) -> pd.DataFrame:
         The grid's scored rows (the store's cells frame).
     order : int
         The derivative order (1 or 2).
-    region : {"interior", "valid"}
+    region : {"interior", "whole"}
         As in :func:`winners`.
 
     Returns

@@ -87,7 +87,7 @@ def _coverage(rows, coverages, order=2):
             "tuned_order": order,
             "metric": "coverage",
             "order": order,
-            "region": "valid",
+            "region": "whole",
             "seed": seed,
             "value": value,
         }
@@ -100,11 +100,11 @@ def _coverage(rows, coverages, order=2):
 
 
 def test_whole_record_winner_leaves_out_entries_that_mask_their_ends(tmp_path):
-    """'a' wins the interior and has the least RMSE over its own valid samples, but estimates
-    only 90 % of the record: on the whole record 'b' (every sample) wins."""
+    """'a' wins the interior and has the least RMSE over the samples it estimates, but
+    estimates only 90 % of the record: on the whole record 'b' (every sample) wins."""
     name = "grid-gaussian-0.2-1ms"
     interior = _rows(name, (("a", 0.0), ("b", 1.0)))
-    whole = _rows(name, (("a", 0.5), ("b", 3.0)), region="valid")
+    whole = _rows(name, (("a", 0.5), ("b", 3.0)), region="whole")
     rows = _coverage(pd.concat([interior, whole], ignore_index=True), {"a": 0.9, "b": 1.0})
     pick = {"noise": "gaussian", "level": 0.2, "step_ms": 1.0}
 
@@ -112,7 +112,7 @@ def test_whole_record_winner_leaves_out_entries_that_mask_their_ends(tmp_path):
         return table[(table[list(pick)] == pd.Series(pick)).all(axis=1)].iloc[0]
 
     assert row(grid.winners(rows, 2, "interior"))["winner"] == "a"
-    best = row(grid.winners(rows, 2, "valid"))
+    best = row(grid.winners(rows, 2, "whole"))
     assert best["winner"] == "b" and pd.isna(best["runner_up"])
     assert best["rmse"] == pytest.approx(whole[whole["method"] == "b"]["value"].mean())
     with pytest.raises(ValueError, match="`region`"):
