@@ -374,8 +374,9 @@ def write_which_method(rows: pd.DataFrame, directory: Path) -> list[Path]:
         f"on seed {tuning.TUNING_SEED}, scored on the others)",
         "Each cell: the method, then its RMSE over the best method's on that record, at worst "
         "and at the median over the kind's records (1.00×: it is the best everywhere). Among "
-        "the methods scored on all of them; **whole**: the whole record, among the settings "
-        f"that mark at least {tables.WHOLE_COVERAGE['valid']:.0%} of it valid. The runner-up, "
+        "the methods scored on all of them; **whole**: every sample of the record as the "
+        "method estimates it, trusted or not, among the settings that estimate all of them on "
+        "every seed. The runner-up, "
         "the wins and the number of methods compared are in the CSV; each record's winner in "
         "`winners_velocity` and `winners_acceleration`; `(resampled)` as there.",
     )
@@ -472,10 +473,9 @@ def write_winners(rows: pd.DataFrame, directory: Path) -> list[Path]:
             "moved by up to ±30 % of the step, or 10 % of the samples lost, scored at the "
             "measured times (`(resampled)`: a method without its own handling of time stamps, "
             "run on the record resampled to the nominal grid and back; `diffbench list`); `—`: "
-            "not run at that step. **whole**: the RMSE over each setting's own valid samples, "
-            "among the settings that mark at least "
-            f"{tables.WHOLE_COVERAGE['valid']:.0%} of the record valid on every seed (they "
-            "estimate every sample; the valid ones are those they trust). The signal: sin 2π4t + "
+            "not run at that step. **whole**: the RMSE over every sample as the setting "
+            "estimates it, trusted or not, among the settings that estimate every sample on "
+            "every seed. The signal: sin 2π4t + "
             "sin 2π9t + sin 2π15t over 0.93 s (not a whole number of periods).\n\nMethods and "
             "the packages that computed them: " + packages_line(rows) + "."
         )
