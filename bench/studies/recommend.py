@@ -197,20 +197,22 @@ def tuning_length(band_hz: float, dt: float) -> int:
 
 
 def middle_segment(realisation, length: int):
-    """``realisation`` cut to its middle ``length`` samples when it is longer (else as it is),
-    its scored samples those of the record that lie at least as far from the segment's ends as
-    the record's first and last scored samples lie from the record's: a method's treatment of
-    the segment's ends, which the record does not have there, is not scored."""
+    """``realisation`` cut to ``length`` samples centred on the middle of its scored ones when
+    it is longer (else as it is), its scored samples those of the record that lie at least as
+    far from the segment's ends as the record's scored samples lie from the record's nearest
+    end: a method's treatment of the segment's ends, which the record does not have there, is
+    not scored."""
     n = realisation.x.shape[0]
     if n <= length:
         return realisation
-    start = (n - length) // 2
-    cut = slice(start, start + length)
     scored = np.asarray(realisation.interior, dtype=bool)
     first, last = int(np.argmax(scored)), int(n - 1 - np.argmax(scored[::-1]))
+    start = min(max((first + last + 1) // 2 - length // 2, 0), n - length)
+    cut = slice(start, start + length)
+    margin = min(first, n - 1 - last)  # the scored samples' least distance from an end
     inside = scored[cut].copy()
-    inside[:first] = False
-    inside[length - (n - 1 - last) :] = False
+    inside[:margin] = False
+    inside[length - margin :] = False
     if inside.sum() < 16:
         return realisation
     truth = realisation.truth

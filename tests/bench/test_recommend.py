@@ -277,6 +277,14 @@ def test_a_long_record_is_tuned_on_the_middle_of_its_surrogates(monkeypatch):
     expected[margin : 2048 - margin] = True
     np.testing.assert_array_equal(cut.interior, expected)
     assert module.middle_segment(surrogate, n) is surrogate  # not longer: as it is
+    # scored samples 100..2099 only: the segment is centred on them, 100 cleared at its ends
+    early = np.zeros(n, dtype=bool)
+    early[100:2100] = True
+    cut = module.middle_segment(dataclasses.replace(record, interior=early), 2048)
+    np.testing.assert_array_equal(cut.x, record.x[76 : 76 + 2048])
+    expected = np.zeros(2048, dtype=bool)
+    expected[100 : 2048 - 100] = True
+    np.testing.assert_array_equal(cut.interior, expected)
 
     lengths = []
 
