@@ -13,6 +13,7 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from dataclasses import dataclass
 
@@ -100,6 +101,15 @@ class Realisation:
         object.__setattr__(self, "dt_s", check_real("dt_s", self.dt_s, gt=0))
         object.__setattr__(self, "seed", check_seed(self.seed))
         object.__setattr__(self, "interior", interior)
+
+    def stretch(self, cut: slice, interior: np.ndarray) -> Realisation:
+        """The samples ``cut`` of this realisation (its times, samples, noise and truth), scored
+        on ``interior`` (a boolean mask over the stretch)."""
+        t = self.t[cut]
+        truth = Truth(t=t, derivatives=tuple(d[cut] for d in self.truth.derivatives))
+        return dataclasses.replace(
+            self, t=t, x=self.x[cut], noise=self.noise[cut], truth=truth, interior=interior
+        )
 
     @functools.cached_property
     def uniform(self) -> bool:

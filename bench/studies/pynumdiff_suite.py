@@ -53,14 +53,14 @@ PyNumDiff's defaults written out: polydiff's kernel, spectraldiff's extension,
 kerneldiff's and butterdiff's one iteration)."""
 
 SHRINK_MARGINS = (1, 2, 3, 4, 5, 7, 10)
+"""Samples left out at each end, in turn, when a method covers no whole record at any
+setting: it is then tuned on the samples it can cover (and marked as not covering)."""
 
 TUNING_SEEDS = 10
 """Noise seeds every method is tuned on (from :data:`tuning.TUNING_SEED`, never scored), the
 loss their mean: on 31 samples one seed's noise decides the setting. Tuned on the seed 10000
 alone, the ℓ1 trend filter picked a penalty below the one that gives f2's least-squares
 quadratic, 0.0295 against 0.0154 on the scored seeds."""
-"""Samples left out at each end, in turn, when a method covers no whole record at any
-setting: it is then tuned on the samples it can cover (and marked as not covering)."""
 
 
 def is_native(name: str) -> bool:

@@ -26,7 +26,6 @@ the scored samples.
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import math
 import time
@@ -37,7 +36,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from diffbench import methods, signals
+from diffbench import methods
 from diffbench.bench.core import executor
 from diffbench.bench.core.errors import DiffbenchWarning, plugin_failure, timeout_failure
 from diffbench.bench.core.scores import error_metrics
@@ -55,6 +54,8 @@ REGION = "interior-estimated"
 scored samples, every one as estimated, trusted or not."""
 
 TUNING_SAMPLES = 2048
+"""The fewest samples a tuning surrogate is cut to (see :data:`TUNING_BAND_PERIODS`)."""
+
 TUNING_BAND_PERIODS = 30
 """The tuning surrogates of a longer record are cut to their middle :data:`TUNING_SAMPLES`
 samples, or :data:`TUNING_BAND_PERIODS` periods of the band's edge if that is longer
@@ -215,16 +216,7 @@ def middle_segment(realisation, length: int):
     inside[length - margin :] = False
     if inside.sum() < 16:
         return realisation
-    truth = realisation.truth
-    t = realisation.t[cut]
-    return dataclasses.replace(
-        realisation,
-        t=t,
-        x=realisation.x[cut],
-        noise=realisation.noise[cut],
-        truth=signals.Truth(t=t, derivatives=tuple(d[cut] for d in truth.derivatives)),
-        interior=inside,
-    )
+    return realisation.stretch(cut, inside)
 
 
 def record_scale(x: np.ndarray) -> float:

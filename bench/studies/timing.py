@@ -17,7 +17,6 @@ from diffbench.bench.core import tuning
 from diffbench.bench.core.plan import preset_entry
 from diffbench.bench.report import figures
 from diffbench.methods.kalman import initial_state
-from diffbench.signals.clean import Truth
 
 DT = 1e-3
 
@@ -381,23 +380,10 @@ def forget_settings() -> None:
 def _paper_signal_head(samples: int, margin: int):
     """The first ``samples`` of paper-signal seed 0, scored on ``[margin, samples - margin)``
     (PyNumDiff's ``padding``)."""
-    from dataclasses import replace
-
     whole = signals.get_scenario("paper-signal").realise(0)
-    head = slice(0, samples)
     interior = np.zeros(samples, dtype=bool)
     interior[margin : samples - margin] = True
-    truth = Truth(
-        t=whole.truth.t[head], derivatives=tuple(d[head] for d in whole.truth.derivatives)
-    )
-    return replace(
-        whole,
-        t=whole.t[head],
-        x=whole.x[head],
-        noise=whole.noise[head],
-        truth=truth,
-        interior=interior,
-    )
+    return whole.stretch(slice(0, samples), interior)
 
 
 def tuning_against_pynumdiff(

@@ -52,12 +52,12 @@ class PyNumDiffSuite(ItemStudy):
 
     def items(self, method_names, seeds):
         count = len(seeds)
+        # an oracle's item names the seeds it is tuned on: a store written when it was tuned on
+        # one seed is not read as the same item
+        oracle = {"source": ORACLE, "seeds": count, "tuning_seeds": suite.TUNING_SEEDS}
         items = []
         for record in self.records:
             for name in self.lineup_names(method_names):
-                # an oracle's item names the seeds it is tuned on: a store written when it was
-                # tuned on one seed is not read as the same item
-                oracle = {"source": ORACLE, "seeds": count, "tuning_seeds": suite.TUNING_SEEDS}
                 if suite.is_native(name):
                     items.append(Item(record, {"method": name, **oracle}))
                     continue

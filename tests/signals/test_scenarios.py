@@ -284,3 +284,21 @@ def test_realisation_checks_its_shapes():
         Realisation(**{**fields, "interior": np.ones(1001)})
     with pytest.raises(ValueError, match="`seed`"):
         Realisation(**{**fields, "seed": -2})
+
+
+def test_a_stretch_of_a_realisation_is_its_samples_there():
+    """Times, samples, noise and every order of the truth cut alike, the new scored mask
+    checked like any realisation's (a mask of the wrong length is refused, naming it)."""
+    whole = get_scenario("paper-signal").realise(3)
+    interior = np.zeros(200, dtype=bool)
+    interior[20:180] = True
+    part = whole.stretch(slice(100, 300), interior)
+    np.testing.assert_array_equal(part.t, whole.t[100:300])
+    np.testing.assert_array_equal(part.x, whole.x[100:300])
+    np.testing.assert_array_equal(part.noise, whole.noise[100:300])
+    for order in (0, 1, 2):
+        np.testing.assert_array_equal(part.truth[order], whole.truth[order][100:300])
+    np.testing.assert_array_equal(part.interior, interior)
+    assert (part.dt_s, part.seed) == (whole.dt_s, whole.seed)
+    with pytest.raises(ValueError, match="`interior` must be a boolean mask of shape"):
+        whole.stretch(slice(100, 300), np.ones(199, dtype=bool))
