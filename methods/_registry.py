@@ -446,9 +446,14 @@ class Method:
             return False
         return True
 
-    def estimate_within(self, x, dt: float, orders, first: int, last: int) -> Estimate:
+    def estimate_within(
+        self, x, dt: float, orders, first: int, last: int, marks: bool = True
+    ) -> Estimate:
         """``self(x, dt, orders)`` for a caller that reads samples ``first`` to ``last``
-        (inclusive) only, such as a tuner's loss on a record's interior.
+        (inclusive) only, such as a tuner's loss on a record's interior; with ``marks=False``
+        for one that reads their values only, never their valid marks (a loss over every
+        estimated sample): the ends check is then skipped wherever it would reach, the values
+        are those of the full call, bit for bit, and only the method's own marks are kept.
 
         The ends check (:func:`~diffbench.methods._ends.trusted_samples`) can mask only the
         first and last ``end_reach(dt)`` samples of a record longer than its probe (``max(2
@@ -458,14 +463,16 @@ class Method:
         the full call, bit for bit, and the samples outside them come back unchecked (marked
         valid where finite) or, where the end treatment was skipped, NaN and invalid.
         Otherwise, and for irregular records, this is the full call."""
-        return self._uniform(x, dt, orders, reads=(int(first), int(last)))
+        return self._uniform(x, dt, orders, reads=(int(first), int(last)), marks=bool(marks))
 
-    def _uniform(self, x, dt: float, orders, reads: tuple[int, int] | None = None) -> Estimate:
+    def _uniform(
+        self, x, dt: float, orders, reads: tuple[int, int] | None = None, marks: bool = True
+    ) -> Estimate:
         orders = check_orders(orders)
         dt = check_dt(dt)
         adapted = self.at_record(np.shape(x)[0], dt) if np.ndim(x) else self.at_step(dt)
         if adapted is not self:
-            return adapted._uniform(x, dt, orders, reads)
+            return adapted._uniform(x, dt, orders, reads, marks)
         # the signal's length first: it is cheap, and check_step may build taps
         x, dt = check_signal(x, dt, min_samples=self.min_samples(dt))
         n = x.shape[0]
@@ -478,7 +485,7 @@ class Method:
             reach = None
         else:
             values, valid = self._estimate(x, dt, orders)
-        if reach:
+        if reach and marks:
             # a record too short for any sample to be within the method's own accuracy keeps
             # its estimates, none of them valid
             trusted = trusted_samples(self, n, dt, orders)

@@ -48,15 +48,18 @@ def is_uniform(realisation) -> bool:
     return bool(getattr(realisation, "uniform", True))
 
 
-def estimate_on(method, realisation, samples=None, orders=(0, 1, 2), reads=None) -> Estimate:
+def estimate_on(
+    method, realisation, samples=None, orders=(0, 1, 2), reads=None, marks: bool = True
+) -> Estimate:
     """``method`` on a realisation's samples (or on ``samples`` taken at the same times: the
     clean signal, the noise alone), given its step when the sampling is uniform, and its time
     stamps (``t=``) with the nominal step when it is not. ``reads``: the first and last
-    sample the caller reads, when it reads no others (``Method.estimate_within``)."""
+    sample the caller reads, when it reads no others; ``marks=False`` when it reads their
+    values only, not their valid marks (``Method.estimate_within``)."""
     x = realisation.x if samples is None else samples
     if is_uniform(realisation):
         if reads is not None:
-            return method.estimate_within(x, realisation.dt_s, orders, *reads)
+            return method.estimate_within(x, realisation.dt_s, orders, *reads, marks=marks)
         return method(x, realisation.dt_s, orders)
     return method(x, realisation.dt_s, orders, t=realisation.t)
 

@@ -328,7 +328,8 @@ def tune(
     )
 
     # the first and last sample each loss reads (the ends check is skipped when it cannot
-    # reach them: the same losses, bit for bit, see Method.estimate_within)
+    # reach them, and on every region but the interior, whose loss reads no valid marks:
+    # the same losses, bit for bit, see Method.estimate_within)
     reads = [
         (int(np.argmax(inside)), int(inside.size - 1 - np.argmax(inside[::-1])))
         for inside in scored
@@ -340,7 +341,12 @@ def tune(
         try:
             with call_timeout(timeout_s):  # CallTimeout: the caller's to report
                 estimate = estimate_on(
-                    cls(**params), realisations[k], x, orders=(order,), reads=reads[k]
+                    cls(**params),
+                    realisations[k],
+                    x,
+                    orders=(order,),
+                    reads=reads[k],
+                    marks=region == "interior",
                 )
         except ValueError:
             return math.inf

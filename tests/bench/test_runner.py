@@ -360,3 +360,31 @@ def test_completed_map_yields_each_result_as_it_finishes():
     assert list(completed_map(_square_after, items[1:], jobs=1)) == [((4, 0.0), 16), ((5, 0.0), 25)]
     with pytest.raises(ValueError, match="`jobs` must be an integer >= 1, got 0"):
         list(completed_map(_square_after, items, jobs=0))
+
+
+def _blas_threads(item):
+    import numpy  # noqa: F401  (loads its BLAS)
+    from threadpoolctl import threadpool_info
+
+    return [pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"]
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_every_item_runs_with_one_blas_thread_here_and_on_workers(jobs):
+    """Items run under ``BLAS_THREADS`` (1) BLAS threads, serially here or on local workers:
+    two workers run two threads, not two each, and compute as a serial run does; this
+    process's own limit is given back after a serial map."""
+    from threadpoolctl import threadpool_info
+
+    from diffbench.bench.core.executor import BLAS_THREADS, completed_map, ordered_map
+
+    def outside():
+        return [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+
+    before = outside()
+    assert before, "numpy's BLAS is not seen by threadpoolctl"
+    for found in ordered_map(_blas_threads, [0, 1, 2], jobs=jobs):
+        assert found and set(found) == {BLAS_THREADS}
+    for _, found in completed_map(_blas_threads, [0, 1], jobs=jobs):
+        assert found and set(found) == {BLAS_THREADS}
+    assert outside() == before

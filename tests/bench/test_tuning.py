@@ -515,16 +515,27 @@ def test_a_choice_declared_untuned_is_left_at_its_value():
     assert kalman["model_order"].kind == "choice" and len(kalman["model_order"].choices) > 1
 
 
-@pytest.mark.parametrize("name", ["savitzky_golay", "butterworth"])
-def test_the_tuner_skipping_the_ends_check_tunes_as_the_full_calls_do(name, monkeypatch):
+@pytest.mark.parametrize(
+    ("name", "region"),
+    [
+        ("savitzky_golay", "interior"),
+        ("butterworth", "interior"),
+        ("gaussian_process", "interior-estimated"),
+        ("butterworth", "whole"),
+    ],
+)
+def test_the_tuner_skipping_the_ends_check_tunes_as_the_full_calls_do(name, region, monkeypatch):
     """The loss reads the interior only: where the ends check cannot reach it the tuner skips
-    it (Method.estimate_within); the tuning is the same as with every full call."""
+    it (Method.estimate_within); on the other regions, whose loss reads no valid marks, it
+    skips it everywhere. The tuning is the same as with every full call."""
     realisation = signals.get_scenario("paper-signal").realise(2)
-    skipping = tuning.tune(name, realisation, 1, "oracle", max_evaluations=60)
+    skipping = tuning.tune(name, realisation, 1, "oracle", max_evaluations=60, region=region)
     monkeypatch.setattr(
-        Method, "estimate_within", lambda self, x, dt, orders, first, last: self(x, dt, orders)
+        Method,
+        "estimate_within",
+        lambda self, x, dt, orders, first, last, marks=True: self(x, dt, orders),
     )
-    full = tuning.tune(name, realisation, 1, "oracle", max_evaluations=60)
+    full = tuning.tune(name, realisation, 1, "oracle", max_evaluations=60, region=region)
     assert (skipping.params, skipping.loss, skipping.evaluations) == (
         full.params,
         full.loss,

@@ -258,6 +258,23 @@ def test_estimate_within_skips_the_check_only_where_it_cannot_matter():
     assert np.array_equal(middle.valid[2], whole.valid[2])
 
 
+@pytest.mark.parametrize(("name", "orders"), [("butterworth", (2,)), ("gaussian_process", (1, 2))])
+def test_an_estimate_read_for_its_values_only_skips_the_check_and_keeps_every_value(name, orders):
+    """``marks=False`` (a caller that reads values, not valid marks): the ends check is skipped
+    however near the ends the samples read are, every value is the full call's, bit for bit,
+    and the marks are the method's own, before the check (here: every sample)."""
+    method = methods.preset(name, "paper-signal")
+    reach = method.end_reach(DT)
+    n = 2 * reach + 401
+    x = np.sin(2 * np.pi * 3 * np.arange(n) * DT)
+    full = method(x, DT, orders)
+    values = method.estimate_within(x, DT, orders, 0, n - 1, marks=False)
+    for order in orders:
+        assert not full.valid[order].all()
+        assert np.array_equal(values[order], full[order])
+        assert values.valid[order].all()
+
+
 def test_savitzky_golay_read_away_from_its_ends_skips_their_fits():
     """Read beyond its half window from both ends, Savitzky–Golay runs its central filter
     alone: the samples read are the full call's, the end samples (which the full call fits
