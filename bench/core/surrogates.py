@@ -19,8 +19,10 @@ deterministic part (at its ends too) is what it is tuned on. The continuum
 (:func:`continuum_spectrum`: a chirp's last frequencies count as much as its first), below
 the band that spectrum shows, and is 0 above it (:math:`w_k = 2`, or 1 at 0 Hz and Nyquist,
 so that its variance is :math:`\frac1N \sum_k w_k \hat S_k`); the noise is Gaussian with
-the spectrum :math:`\nu` below the band and the record's periodogram above it (a
-disturbance line stays where it was). The derivatives of the signal are exact (the sums
+the spectrum :math:`\nu` below the band and, above it, the periodogram of the record less
+every fitted line, plus the disturbances (lines more than an octave above the band) as fitted
+to the record: a noise-free record's surrogates are noise-free too, not given the 93 dB
+taper leakage of its lines as white noise. The derivatives of the signal are exact (the sums
 differentiated term by term), so any method, linear or not, can be scored and tuned on
 surrogates with the oracle criterion: data-only tuning for every method.
 
@@ -131,6 +133,14 @@ def surrogate_records(
         np.real((1j * line_omega) ** order * np.exp(1j * argument)) @ line_amplitude[signal]
         for order in range(3)
     ]
+    # a disturbance is kept as fitted too, in the noise: the noise above the band is the rest
+    # (what no line explains), not the lines' taper leakage, 93 dB under a line, which gave a
+    # noise-free record's surrogates white noise the record does not have
+    disturbance = (
+        np.cos(np.outer(t, 2 * np.pi * line_hz[~signal]) + line_phase[~signal])
+        @ line_amplitude[~signal]
+    )
+    above_power = periodogram(rest, dt)[1]
     trend = None
     if spectrum.band_hz * n_samples * dt < SHORT_RECORD_CYCLES:
         # a record shorter than its signal's cycles: its signal is its trend (see below)
@@ -144,7 +154,7 @@ def surrogate_records(
     noise_power = np.where(
         spectrum.frequency_hz <= max(continuum_hz, spectrum.band_hz),
         floor,
-        periodogram(x - line_terms[0], dt)[1],
+        above_power,
     )
     # on the finer grid each bin holds 1/LENGTH_FACTOR of the variance of the record's bin
     fine_signal = np.interp(fine, spectrum.frequency_hz, signal_power) / LENGTH_FACTOR
@@ -168,7 +178,7 @@ def surrogate_records(
         if trend is not None:
             derivatives = [d + trends[index].deriv(order)(t) for order, d in enumerate(derivatives)]
         truth = signals.Truth(t=t, derivatives=tuple(derivatives))
-        noise = _coloured_noise(noise_power, n_samples, rng)
+        noise = _coloured_noise(noise_power, n_samples, rng) + disturbance
         realisations.append(
             signals.Realisation(
                 t=t,
