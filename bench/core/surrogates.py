@@ -122,22 +122,30 @@ def surrogate_records(
     line_hz, line_amplitude, line_phase, rest = fit_lines(
         x, dt, spectral_lines(spectrum, n_samples, up_to_hz=spectrum.frequency_hz[-1])[0]
     )
-    fitted = 3 * line_hz.size + 2  # frequency, amplitude, phase per line; constant, slope
+    line_hz, line_growth, line_amplitude, line_phase, rest, grown = fit_line_growth(
+        x, dt, line_hz, line_amplitude, line_phase, rest
+    )
+    # frequency, amplitude, phase (and growth, where fitted) per line; constant, slope
+    fitted = (4 if grown else 3) * line_hz.size + 2
     # a line more than an octave above the band is a disturbance (the band's own rule); one
     # just above the band's edge (its fitted frequency past the edge bin) is the signal's
     signal = line_hz <= 2 * spectrum.band_hz
-    line_omega = 2 * np.pi * line_hz[signal]
+    rate = line_growth[signal] + 2j * np.pi * line_hz[signal]
     t = np.arange(n_samples) * dt
-    argument = np.outer(t, line_omega) + line_phase[signal]  # the record's own lines
+    exponent = np.outer(t, rate) + 1j * line_phase[signal]  # the record's own lines
     line_terms = [
-        np.real((1j * line_omega) ** order * np.exp(1j * argument)) @ line_amplitude[signal]
-        for order in range(3)
+        np.real(rate**order * np.exp(exponent)) @ line_amplitude[signal] for order in range(3)
     ]
     # a disturbance is kept as fitted too, in the noise: the noise above the band is the rest
     # (what no line explains), not the lines' taper leakage, 93 dB under a line, which gave a
     # noise-free record's surrogates white noise the record does not have
     disturbance = (
-        np.cos(np.outer(t, 2 * np.pi * line_hz[~signal]) + line_phase[~signal])
+        np.real(
+            np.exp(
+                np.outer(t, line_growth[~signal] + 2j * np.pi * line_hz[~signal])
+                + 1j * line_phase[~signal]
+            )
+        )
         @ line_amplitude[~signal]
     )
     above_power = periodogram(rest, dt)[1]
@@ -392,6 +400,82 @@ def fit_lines(
     # A cos(ωt + φ) = A cos φ cos ωt − A sin φ sin ωt
     amplitude, phase = np.hypot(cosine, sine), np.arctan2(-sine, cosine)
     return solution.x, amplitude, phase, x - design[:, 2:] @ coefficients[2:]
+
+
+GROWTH_SPAN = 12.0
+"""The most a fitted line's amplitude may grow or decay over the record: by :math:`e^{12}`
+(its growth rate at most 12/T in magnitude)."""
+
+
+def fit_line_growth(x, dt, line_hz, amplitude, phase, rest):
+    r"""The lines ``line_hz`` (as :func:`fit_lines` fitted them, with their ``amplitude``,
+    ``phase`` and the record less them, ``rest``) refitted with an exponential envelope each,
+
+    .. math:: x_j \approx c_0 + c_1 t_j + \sum_l A_l e^{\kappa_l t_j}
+        \cos(2\pi f_l t_j + \phi_l),
+
+    the frequencies and growth rates :math:`\kappa_l` by nonlinear least squares (the
+    amplitudes and phases linear given them), kept when the Bayesian information criterion
+    says the record holds them (:math:`n \ln(\mathrm{RSS}/n) + k \ln n`, one more parameter
+    per line): a damped oscillation is then a line that decays as the record's does, not a
+    steady line and a continuum that cancels it where the record has gone quiet. Returns the
+    frequencies (Hz), growth rates (1/s; zeros for steady lines), amplitudes and phases at
+    t = 0, the record less the lines, and whether the growth was kept.
+    """
+    line_hz = np.asarray(line_hz, dtype=np.float64)
+    steady = (line_hz, np.zeros(line_hz.size), amplitude, phase, rest, False)
+    if line_hz.size == 0:
+        return steady
+    n = x.size
+    t = np.arange(n) * dt
+    centred = t - t.mean()
+    span = n * dt
+    resolution = 1.0 / span
+
+    def design_of(parameters):
+        frequency, growth = np.split(parameters, 2)
+        envelope = np.exp(np.outer(t, growth))
+        argument = np.outer(t, 2 * np.pi * frequency)
+        return np.column_stack(
+            [np.ones_like(t), centred, envelope * np.cos(argument), envelope * np.sin(argument)]
+        )
+
+    def residual(parameters):
+        design = design_of(parameters)
+        coefficients, *_ = np.linalg.lstsq(design, x, rcond=None)
+        return design @ coefficients - x
+
+    most = GROWTH_SPAN / span
+    start = np.concatenate([line_hz, np.zeros(line_hz.size)])
+    solution = optimize.least_squares(
+        residual,
+        start,
+        bounds=(
+            np.concatenate([line_hz - resolution, np.full(line_hz.size, -most)]),
+            np.concatenate([line_hz + resolution, np.full(line_hz.size, most)]),
+        ),
+        x_scale=np.concatenate([np.full(line_hz.size, resolution), np.full(line_hz.size, most)]),
+        xtol=1e-12,
+        ftol=1e-12,
+        gtol=1e-12,
+    )
+    steady_rss = float(np.sum((rest - np.polyval(np.polyfit(centred, rest, 1), centred)) ** 2))
+    grown_rss = float(np.sum(solution.fun**2))
+    tiny = np.finfo(float).tiny
+    if n * math.log(max(grown_rss, tiny) / max(steady_rss, tiny)) + line_hz.size * math.log(n) >= 0:
+        return steady
+    design = design_of(solution.x)
+    coefficients, *_ = np.linalg.lstsq(design, x, rcond=None)
+    cosine, sine = np.split(coefficients[2:], 2)
+    frequency, growth = np.split(solution.x, 2)
+    return (
+        frequency,
+        growth,
+        np.hypot(cosine, sine),
+        np.arctan2(-sine, cosine),
+        x - design[:, 2:] @ coefficients[2:],
+        True,
+    )
 
 
 def _coloured_noise(power: np.ndarray, n_samples: int, rng: np.random.Generator) -> np.ndarray:
