@@ -99,7 +99,8 @@ COMMANDS: dict[str, Command] = {
     "recommend": Command(
         "which method, with which settings, for your own record (CSV or Parquet)",
         api.recommend,
-        (*PLUG, *WORK, "file2", "columns", "time", "dt", *ADVICE),
+        (*PLUG, "jobs", "executor", "scheduler", "timeout2", "progress", "file2", "columns")
+        + ("time", "dt", *ADVICE),
     ),
     "recommend-check": Command(
         "score `recommend` against the truth on the signal scenarios (as if unknown)",

@@ -89,6 +89,20 @@ OPTIONS: dict[str, tuple[tuple[str, ...], dict[str, Any]]] = {
             help=TIMEOUT_HELP,
         ),
     ),
+    "timeout2": (
+        ("--timeout",),
+        dict(
+            dest="timeout_s",
+            type=typed(timeout_s),
+            default=runner.DEFAULT_TIMEOUT_S,
+            metavar="SECONDS",
+            help=(
+                "most seconds one call of a method may take (in its tuning or scoring); a "
+                "method past it gets a row saying so and the others are still ranked "
+                f"(default {runner.DEFAULT_TIMEOUT_S:g})"
+            ),
+        ),
+    ),
     "progress": (
         ("--no-progress",),
         dict(dest="progress", action="store_false", help="no progress bar"),
