@@ -33,6 +33,7 @@ class Command(NamedTuple):
 
 OUT = ("out",)
 WORK = ("jobs", "executor", "scheduler", "timeout", "progress")
+ADVICE_WORK = ("jobs", "executor", "scheduler", "timeout2", "progress")  # per call, not cell
 ITEMS = ("jobs", "executor", "scheduler", "progress")  # an item study has no per-call timeout
 PLUG = ("plugins",)
 RUN = (*OUT, *WORK, "seeds", "methods", *PLUG)
@@ -99,8 +100,7 @@ COMMANDS: dict[str, Command] = {
     "recommend": Command(
         "which method, with which settings, for your own record (CSV or Parquet)",
         api.recommend,
-        (*PLUG, "jobs", "executor", "scheduler", "timeout2", "progress", "file2", "columns")
-        + ("time", "dt", *ADVICE),
+        (*PLUG, *ADVICE_WORK, "file2", "columns", "time", "dt", *ADVICE),
     ),
     "recommend-check": Command(
         "score `recommend` against the truth on the signal scenarios (as if unknown)",
