@@ -174,6 +174,13 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
             f"{group['ratio'].median():.3g}, worst {group['ratio'].max():.3g} "
             f"({group.loc[group['ratio'].idxmax(), 'scenario']}), over {len(group)} scenarios"
         )
+        accuracy = (group["predicted_rmse"] / group["true_rmse"]).replace(np.inf, np.nan).dropna()
+        if len(accuracy):
+            within = int(np.count_nonzero((accuracy >= 0.8) & (accuracy <= 1.2)))
+            line += (
+                f"; predicted over true RMSE {accuracy.min():.3g} to {accuracy.max():.3g} "
+                f"(median {accuracy.median():.3g}), within ±20 % on {within} of {len(accuracy)}"
+            )
         peer = group["pynumdiff_ratio"].dropna()
         if len(peer):
             line += (
@@ -191,6 +198,7 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
             "settings": frame["params"],
             "predicted": frame["predicted_rmse"].map("{:.4g}".format),
             "true": frame["true_rmse"].map("{:.4g}".format),
+            "predicted / true": (frame["predicted_rmse"] / frame["true_rmse"]).map("{:.3g}".format),
             "oracle-tuned best": frame["oracle_best"]
             + " "
             + frame["oracle_rmse"].map("{:.4g}".format),
