@@ -68,13 +68,14 @@ END_FRACTION = 0.05
 """The samples within this fraction of the record of either end are left out of a surrogate's
 ``interior`` (a method may mask a few end samples and still be scored)."""
 
-TIME_BANDWIDTH = 6.0
+TIME_BANDWIDTH = 4.0
 """NW of the continuum's multitaper estimate: its resolution is ±NW/T Hz (T: the interior's
-span). At 6, nine tapers of concentration at least ``MIN_CONCENTRATION`` weigh the stretch
-0.27 of its mean at 5 % from an end, 0.99 at 10 %, 1.23 in the middle; at 4 (five tapers)
-it was 0.08, 0.45 and 1.40, and a chirp's last frequencies, which sit near the end of the
-record, were under-represented: `recommend` predicted 0.77 of its true RMSE and chose a
-setting 1.27 times the best (now 1.03 and 1.01)."""
+span). Its five tapers weigh the stretch 0.08 of its mean at 5 % from an end, 0.45 at 10 %,
+1.40 in the middle, so a chirp's last frequencies are under-represented (`recommend`
+predicts 0.77 of its true RMSE, its choice 1.27 times the best). NW = 6 (nine tapers: 0.27,
+0.99, 1.23) fixed the chirp (1.01), but its wider spread blurred steep spectra: the limit
+study's data-only tunings lost a third to a half of their efficiency on the band-limited
+signal and on Matérn 7/2 at noise 0.01, so it stays at 4."""
 
 SHORT_RECORD_CYCLES = 2.0
 """A record spanning fewer cycles of its band than this (a band of 0 Hz: none) is short: its
@@ -89,9 +90,9 @@ MIN_TREND_DEGREE = 3
 """The lowest: a cubic, so that ẋ and ẍ of the surrogates vary with what the noise leaves
 possible (:func:`trend_draws`), not fixed at the zero curvature of a line."""
 
-MIN_CONCENTRATION = 0.998
+MIN_CONCENTRATION = 0.999
 """The Slepian tapers used keep at least this fraction of their energy within ±NW/T: at
-NW = 6, nine of the eleven, so that less than 2e-3 of a strong component leaks elsewhere."""
+NW = 4, five of the seven, so that less than 1e-3 of a strong component leaks elsewhere."""
 
 
 def surrogate_records(
@@ -313,9 +314,8 @@ def continuum_spectrum(
     with the Slepian tapers :math:`v^{(j)}` of time-bandwidth ``TIME_BANDWIDTH`` (NW) whose
     concentration within ±W = NW/T Hz is at least ``MIN_CONCENTRATION``. Unlike one tapered
     periodogram, which hardly sees the first and last fifths of the record, the tapers
-    together weigh the stretch evenly but for its outer tenths (see ``TIME_BANDWIDTH``): a
-    chirp's last frequencies or a transient's tail count about as much as they do in the
-    error. The band ends at the last bin standing
+    together weigh more of the stretch, though its outer tenths still little (see
+    ``TIME_BANDWIDTH``). The band ends at the last bin standing
     above what noise alone reaches (a gamma variable of shape K and mean ν: ``FALSE_ALARM``
     per record) before an octave of quiet, and within an octave of the record's band (a line
     far above it, a disturbance, is noise); 0 Hz when nothing stands out (a record of lines
