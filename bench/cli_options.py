@@ -32,6 +32,21 @@ TIMEOUT_HELP = (
     "built-in cell takes about 160 s)"
 )
 
+
+def _timeout_option(help_text: str) -> tuple[tuple[str, ...], dict[str, Any]]:
+    """``--timeout SECONDS`` (into ``timeout_s``), with its help for the command at hand."""
+    return (
+        ("--timeout",),
+        dict(
+            dest="timeout_s",
+            type=typed(timeout_s),
+            default=runner.DEFAULT_TIMEOUT_S,
+            metavar="SECONDS",
+            help=help_text,
+        ),
+    )
+
+
 OPTIONS: dict[str, tuple[tuple[str, ...], dict[str, Any]]] = {
     # name: (flags, argparse keywords); a name ending in a digit is a variant of an option
     "out": (
@@ -79,29 +94,11 @@ OPTIONS: dict[str, tuple[tuple[str, ...], dict[str, Any]]] = {
             ),
         ),
     ),
-    "timeout": (
-        ("--timeout",),
-        dict(
-            dest="timeout_s",
-            type=typed(timeout_s),
-            default=runner.DEFAULT_TIMEOUT_S,
-            metavar="SECONDS",
-            help=TIMEOUT_HELP,
-        ),
-    ),
-    "timeout2": (
-        ("--timeout",),
-        dict(
-            dest="timeout_s",
-            type=typed(timeout_s),
-            default=runner.DEFAULT_TIMEOUT_S,
-            metavar="SECONDS",
-            help=(
-                "most seconds one call of a method may take (in its tuning or scoring); a "
-                "method past it gets a row saying so and the others are still ranked "
-                f"(default {runner.DEFAULT_TIMEOUT_S:g})"
-            ),
-        ),
+    "timeout": _timeout_option(TIMEOUT_HELP),
+    "timeout2": _timeout_option(  # recommend's: it bounds calls, not cells
+        "most seconds one call of a method may take (in its tuning or scoring); a method past "
+        "it gets a row saying so and the others are still ranked (default "
+        f"{runner.DEFAULT_TIMEOUT_S:g})"
     ),
     "progress": (
         ("--no-progress",),

@@ -135,24 +135,17 @@ def surrogate_records(
     # a line more than an octave above the band is a disturbance (the band's own rule); one
     # just above the band's edge (its fitted frequency past the edge bin) is the signal's
     signal = line_hz <= 2 * spectrum.band_hz
-    rate = line_growth[signal] + 2j * np.pi * line_hz[signal]
+    rate = line_growth + 2j * np.pi * line_hz
     t = np.arange(n_samples) * dt
-    exponent = np.outer(t, rate) + 1j * line_phase[signal]  # the record's own lines
+    waves = np.exp(np.outer(t, rate) + 1j * line_phase)  # the record's own lines
     line_terms = [
-        np.real(rate**order * np.exp(exponent)) @ line_amplitude[signal] for order in range(3)
+        np.real(rate[signal] ** order * waves[:, signal]) @ line_amplitude[signal]
+        for order in range(3)
     ]
     # a disturbance is kept as fitted too, in the noise: the noise above the band is the rest
     # (what no line explains), not the lines' taper leakage, 93 dB under a line, which gave a
     # noise-free record's surrogates white noise the record does not have
-    disturbance = (
-        np.real(
-            np.exp(
-                np.outer(t, line_growth[~signal] + 2j * np.pi * line_hz[~signal])
-                + 1j * line_phase[~signal]
-            )
-        )
-        @ line_amplitude[~signal]
-    )
+    disturbance = np.real(waves[:, ~signal]) @ line_amplitude[~signal]
     above_power = periodogram(rest, dt)[1]
     trend = None
     if spectrum.band_hz * n_samples * dt < SHORT_RECORD_CYCLES:

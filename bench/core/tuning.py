@@ -334,6 +334,7 @@ def tune(
         (int(np.argmax(inside)), int(inside.size - 1 - np.argmax(inside[::-1])))
         for inside in scored
     ]
+    reads_marks = region == "interior"  # the interior must be trusted; elsewhere, estimated
 
     def loss_on(k: int, params: dict[str, Any]) -> float:
         """The loss of ``params`` on realisation ``k``."""
@@ -346,12 +347,12 @@ def tune(
                     x,
                     orders=(order,),
                     reads=reads[k],
-                    marks=region == "interior",
+                    marks=reads_marks,
                 )
         except ValueError:
             return math.inf
         # the interior must be trusted; otherwise the samples scored estimated, trusted or not
-        covered = estimate.valid[order] if region == "interior" else estimate.estimated(order)
+        covered = estimate.valid[order] if reads_marks else estimate.estimated(order)
         if not covered[inside].all():
             return math.inf
         if criterion == "oracle":

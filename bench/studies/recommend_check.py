@@ -166,6 +166,7 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
     rows = [with_best_known(row) for row in rows]
     frame = pd.DataFrame(rows).sort_values(["order", "scenario"]).reset_index(drop=True)
     frame.to_csv(out / "validation.csv", index=False)
+    accuracy = frame["predicted_rmse"] / frame["true_rmse"]  # predicted over true, per row
     lines = ["# Data-only recommendation against the truth", ""]
     for order, group in frame.groupby("order"):
         symbol = "ẋ" if order == 1 else "ẍ"
@@ -174,12 +175,12 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
             f"{group['ratio'].median():.3g}, worst {group['ratio'].max():.3g} "
             f"({group.loc[group['ratio'].idxmax(), 'scenario']}), over {len(group)} scenarios"
         )
-        accuracy = (group["predicted_rmse"] / group["true_rmse"]).replace(np.inf, np.nan).dropna()
-        if len(accuracy):
-            within = int(np.count_nonzero((accuracy >= 0.8) & (accuracy <= 1.2)))
+        finite = accuracy[group.index].replace(np.inf, np.nan).dropna()
+        if len(finite):
+            within = int(np.count_nonzero((finite >= 0.8) & (finite <= 1.2)))
             line += (
-                f"; predicted over true RMSE {accuracy.min():.3g} to {accuracy.max():.3g} "
-                f"(median {accuracy.median():.3g}), within ±20 % on {within} of {len(accuracy)}"
+                f"; predicted over true RMSE {finite.min():.3g} to {finite.max():.3g} "
+                f"(median {finite.median():.3g}), within ±20 % on {within} of {len(finite)}"
             )
         peer = group["pynumdiff_ratio"].dropna()
         if len(peer):
@@ -198,7 +199,7 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
             "settings": frame["params"],
             "predicted": frame["predicted_rmse"].map("{:.4g}".format),
             "true": frame["true_rmse"].map("{:.4g}".format),
-            "predicted / true": (frame["predicted_rmse"] / frame["true_rmse"]).map("{:.3g}".format),
+            "predicted / true": accuracy.map("{:.3g}".format),
             "oracle-tuned best": frame["oracle_best"]
             + " "
             + frame["oracle_rmse"].map("{:.4g}".format),
