@@ -208,6 +208,7 @@ def tune(
     tuning_seeds: int = 1,
     budget: int | None = None,
     region: str = "interior",
+    screen: int | None = None,
     seeds: int | None = None,
     jobs: Workers = 1,
     timeout_s: float = runner.DEFAULT_TIMEOUT_S,
@@ -237,6 +238,10 @@ def tune(
         Most evaluations per differential-evolution run.
     region : {"interior", "whole"}
         The samples the loss is taken on.
+    screen : int, optional
+        With more combinations of a method's choice parameters than this, each is screened
+        by one generation of its search and only this many best are searched in full,
+        sharing the budget of all (default: every combination, each with its own budget).
     seeds, jobs, timeout_s, out, progress, echo
         As for :func:`run`; ``echo`` also gets each tuning found.
 
@@ -255,6 +260,7 @@ def tune(
     tuning_seeds = check("tuning_seeds", tuning_seed_count, tuning_seeds)
     budget = None if budget is None else check("budget", positive_count, budget)
     region = check("region", one_of("interior", "whole"), region)
+    screen = None if screen is None else check("screen", positive_count, screen)
     seeds = None if seeds is None else check("seeds", seed_count, seeds)
     timeout_s = check("timeout_s", timeout, timeout_s)
     jobs = ready(jobs)
@@ -293,6 +299,7 @@ def tune(
         for criterion in data_only:
             with checked(f"--cutoff-hz on {task.name}: "):
                 tuning.check_cutoff(cutoff_hz, realisation, criterion, region)
+    search = dict(budget=budget, tuning_seeds=tuning_seeds, region=region, screen=screen)
     jobs_list = []
     for criterion in criteria:
         for name in names:
@@ -302,17 +309,7 @@ def tune(
                 continue
             cutoff = cutoff_hz if criterion in data_only else None
             jobs_list += [
-                runner.TuningJob(
-                    task.name,
-                    name,
-                    criterion,
-                    order,
-                    tuning_seed,
-                    cutoff,
-                    budget=budget,
-                    tuning_seeds=tuning_seeds,
-                    region=region,
-                )
+                runner.TuningJob(task.name, name, criterion, order, tuning_seed, cutoff, **search)
                 for order in orders
             ]
     store = open_store(out)

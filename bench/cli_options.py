@@ -287,6 +287,19 @@ OPTIONS: dict[str, tuple[tuple[str, ...], dict[str, Any]]] = {
             ),
         ),
     ),
+    "screen": (
+        ("--screen",),
+        dict(
+            type=typed(positive_count),
+            default=None,
+            metavar="K",
+            help=(
+                "screen each combination of a method's choices by one generation of its "
+                "search; only the K best are searched in full, sharing the budget of all "
+                "(default: every combination in full)"
+            ),
+        ),
+    ),
     "budget2": (
         ("--budget",),
         dict(type=typed(positive_count), default=None, help="most evaluations per tuning"),

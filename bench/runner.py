@@ -343,6 +343,8 @@ def _tuned(job: TuningJob, realisations, timeout_s: float | None) -> dict[str, A
             max_evaluations=job.budget,
             region=job.region,
             timeout_s=timeout_s,
+            screen_choices=job.screen,
+            share_budget=True,
         )
     except search_space.NoRoomToTune as error:  # the method cannot cover the task at all
         return {

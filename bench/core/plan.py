@@ -73,7 +73,8 @@ def unique(items: Iterable) -> list:
 class TuningJob:
     """One tuning: ``method`` on ``task``'s realisations ``tuning_seed`` ..
     ``tuning_seed + tuning_seeds - 1`` (the loss averaged over them) for ``order``, the loss
-    taken on ``region`` ("interior" or "whole")."""
+    taken on ``region`` ("interior" or "whole"); with ``screen``, the combinations of the
+    method's choice parameters screened down to that many (the tuner's ``screen_choices``)."""
 
     task: str
     method: str
@@ -84,6 +85,7 @@ class TuningJob:
     budget: int | None = None
     tuning_seeds: int = 1
     region: str = "interior"
+    screen: int | None = None
 
     def fields(self) -> dict[str, Any]:
         return {
@@ -96,6 +98,7 @@ class TuningJob:
             "budget": self.budget,
             "tuning_seeds": self.tuning_seeds,
             "region": self.region,
+            "screen": self.screen,
         }
 
     @property

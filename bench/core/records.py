@@ -158,7 +158,7 @@ def check_cell(record: dict) -> None:
         raise ValueError("`key` does not match the record's task, method, params, seed, role")
 
 
-def _check_seed_count(value: Any, name: str) -> None:
+def _check_positive_count(value: Any, name: str) -> None:
     if isinstance(value, bool) or not isinstance(value, int) or value < 1:
         raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
 
@@ -167,8 +167,9 @@ def _check_seed_count(value: Any, name: str) -> None:
 TUNING_KEY_FIELDS = ("task", "method", "criterion", "order", "tuning_seed", "cutoff_hz", "budget")
 
 
-# key fields stored only when they differ from their default (older records lack them)
-OPTIONAL_TUNING_FIELDS = {"tuning_seeds": 1, "region": "interior"}
+# key fields stored only when they differ from their default (older records lack them);
+# ``screen``: the choice combinations screened down to (the tuner's ``screen_choices``)
+OPTIONAL_TUNING_FIELDS = {"tuning_seeds": 1, "region": "interior", "screen": None}
 
 
 def optional_fields(fields: Mapping[str, Any]) -> dict[str, Any]:
@@ -179,9 +180,9 @@ def optional_fields(fields: Mapping[str, Any]) -> dict[str, Any]:
 
 def tuning_key(**fields: Any) -> str:
     """The identity of a tuning: task, method, criterion, order, (first) tuning seed,
-    bandlimit, budget, and the number of tuning seeds and the region of the loss when they
-    are not 1 and "interior" (so the key of a one-seed interior tuning is what it was before
-    those fields existed)."""
+    bandlimit, budget, and the number of tuning seeds, the region of the loss and the
+    screening of the choices when they are not 1, "interior" and none (so the key of a
+    one-seed interior tuning is what it was before those fields existed)."""
     return canonical(
         {**{name: fields[name] for name in TUNING_KEY_FIELDS}, **optional_fields(fields)}
     )
@@ -192,9 +193,11 @@ def check_tuning(record: dict) -> None:
         raise ValueError("`params` must be a dict")
     if not isinstance(record.get("loss"), (int, float)):
         raise ValueError("`loss` must be a number")
-    _check_seed_count(record.get("tuning_seeds", 1), "`tuning_seeds`")
+    _check_positive_count(record.get("tuning_seeds", 1), "`tuning_seeds`")
     if record.get("region", "interior") not in TUNED_REGIONS:
         raise ValueError(f"`region` must be one of {', '.join(TUNED_REGIONS)}")
+    if "screen" in record:
+        _check_positive_count(record["screen"], "`screen`")
     fields = {n: record.get(n) for n in TUNING_KEY_FIELDS}
     optional = {n: record[n] for n in OPTIONAL_TUNING_FIELDS if n in record}
     if record.get("key") != tuning_key(**fields, **optional):

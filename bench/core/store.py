@@ -30,7 +30,9 @@ Guarantees
   opening, once: every valid record with its run, in one transaction (the database notes the
   import; keys are unique, so two openers store each record once). The lines that are not
   valid records (a torn last line, garbage) are listed in :attr:`Store.set_aside` by the
-  opening that imports. The files are left as they are, and read no more.
+  opening that imports. The files are left as they are, and read no more. A database written
+  before an optional column existed (a tuning's ``screen``) gets the column on opening, empty
+  in its records: they read as they were written.
 """
 
 from __future__ import annotations
@@ -268,6 +270,8 @@ class Store:
             ).fetchone()
             if found is None:
                 self._create(connection)
+            else:
+                self._add_optional_columns(connection)
 
     def _check(self, connection: sqlite3.Connection) -> None:
         tables = {
@@ -307,6 +311,15 @@ class Store:
         connection.execute(_RUNS)
         for schema in SCHEMAS.values():
             connection.execute(schema.create())
+
+    def _add_optional_columns(self, connection: sqlite3.Connection) -> None:
+        """Give a store written before an optional column existed that column (in the
+        caller's transaction): its records hold NULL there, which reads as absent, as they
+        were written; their keys are unchanged."""
+        for schema in SCHEMAS.values():
+            present = {row[1] for row in connection.execute(f'PRAGMA table_info("{schema.table}")')}
+            for name in sorted(schema.optional - present):
+                connection.execute(f'ALTER TABLE "{schema.table}" ADD COLUMN "{name}"')
 
     def _connection(self) -> sqlite3.Connection:
         """This process's connection (a forked process opens its own)."""

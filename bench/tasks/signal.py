@@ -359,7 +359,31 @@ def tuning_report(cells: pd.DataFrame, tunings: pd.DataFrame, directory: Path) -
         "no-truth / oracle near 1 means the data-only criterion finds what the truth would; "
         "tuning.csv also gives the seconds each tuning took. **whole record**: RMSE over every "
         "sample each setting estimates; **least coverage**: the smallest fraction of the record "
-        "they estimate among the row's settings (under 1: some samples have no estimate).",
+        "they estimate among the row's settings (under 1: some samples have no estimate)."
+        + screening_note(tunings),
+    )
+
+
+def screening_note(tunings: pd.DataFrame) -> str:
+    """The sentence saying which columns of the tuning table were tuned with their choices
+    screened (the tunings' ``screen``; empty when none was)."""
+    if not len(tunings) or "screen" not in tunings or tunings["screen"].isna().all():
+        return ""
+    columns = []
+    for column, criterion, seeds, region in TUNING_VARIANTS:
+        hit = tunings[
+            (tunings["criterion"] == criterion)
+            & (tunings["tuning_seeds"] == seeds)
+            & (tunings["region"] == region)
+        ]["screen"].dropna()
+        columns += [f"**{column}** to the best {int(k)}" for k in sorted(hit.unique())]
+    if not columns:
+        return ""
+    return (
+        " Screened (`diffbench tune --screen K`): "
+        + ", ".join(columns)
+        + ": each combination of a method's choice parameters got one generation of its "
+        "search and only the K best were searched in full, sharing the budget of all."
     )
 
 

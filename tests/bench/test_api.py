@@ -66,6 +66,7 @@ def test_run_stores_the_scores_the_command_line_stores_and_resumes(tmp_path, cap
         (lambda out: api.run(TASK, scenarios=["x"], out=out), "scenarios: only the studies limit"),
         (lambda out: api.run("limit", scenarios=["x"], out=out), "`scenarios`: not limit"),
         (lambda out: api.tune("jacobi", TASK, criteria="foo", out=out), "criteria: must be among"),
+        (lambda out: api.tune("jacobi", TASK, screen=0, out=out), "screen: must be a whole number"),
         (
             lambda out: api.tune("jacobi", TASK, tuning_seed=1, seeds=3, out=out),
             "--tuning-seed 1 overlaps the scored seeds 0..2; choose a tuning seed >= 3",
@@ -147,6 +148,23 @@ def test_tune_returns_each_tuning_and_scores_it(tmp_path, capsys):
     )
     assert (again.tunings.computed, again.tunings.reused, again.cells.computed) == (0, 2, 0)
     assert capsys.readouterr().out == ""
+
+
+def test_a_screened_tuning_is_stored_apart_from_the_unscreened_one(tmp_path):
+    """``screen``: the tuner screens the method's choice combinations (finite differences:
+    3 schemes) down to that many; the tuning is stored under its own key, so the unscreened
+    tuning of the same job is computed, not read from it, and neither is recomputed again."""
+    common = dict(criteria="oracle", orders=[1], seeds=1, budget=20, out=tmp_path)
+    screened = api.tune("finite_difference", TASK, screen=1, **common)
+    (job,) = screened.tuned
+    assert job.screen == 1 and screened.tunings.computed == 1
+    assert screened.tuned[job]["screen"] == 1
+    full = api.tune("finite_difference", TASK, **common)
+    (plain,) = full.tuned
+    assert plain.screen is None and full.tunings.computed == 1
+    assert "screen" not in full.tuned[plain]
+    again = api.tune("finite_difference", TASK, screen=1, **common)
+    assert (again.tunings.computed, again.tunings.reused) == (0, 1)
 
 
 def test_method_groups_and_listings():

@@ -575,3 +575,33 @@ def test_a_one_seed_tuning_keeps_the_keys_stored_before_the_seed_count_existed(t
         Role.tuned("oracle", 1, 10_000, seeds=0)
     with pytest.raises(ValueError, match="only a tuned role"):
         Role(origin="preset", tuning_seeds=2)
+
+
+def test_a_store_written_before_the_screen_column_gets_it_and_reads_as_written(tmp_path):
+    """A tuning's ``screen`` (the choice combinations screened down to) is an optional key
+    field: an unscreened tuning keeps the key it had before; a store whose tunings table
+    lacks the column (an earlier version's) gets it on opening, its records unchanged, and
+    takes screened tunings beside them."""
+    fields = dict(FIELDS)
+    assert tuning_key(**fields, screen=None) == tuning_key(**fields)
+    assert tuning_key(**fields, screen=2) != tuning_key(**fields)
+    store = Store(tmp_path / "store")
+    assert store.add_tuning(**fields, params={"w": 1}, loss=0.5, evaluations=3, seconds=0.1)
+    store.close()
+    with sqlite3.connect(tmp_path / "store" / STORE_FILE) as connection:
+        connection.execute('ALTER TABLE tunings DROP COLUMN "screen"')  # as an earlier version
+    again = Store(tmp_path / "store")
+    with sqlite3.connect(tmp_path / "store" / STORE_FILE) as connection:
+        columns = [row[1] for row in connection.execute("PRAGMA table_info(tunings)")]
+    assert "screen" in columns
+    old = again.find_tuning(**fields)
+    assert old["params"] == {"w": 1} and "screen" not in old
+    assert again.add_tuning(
+        **fields, screen=2, params={"w": 2}, loss=0.4, evaluations=3, seconds=0.1
+    )
+    assert again.find_tuning(**fields, screen=2)["params"] == {"w": 2}
+    assert again.find_tuning(**fields)["params"] == {"w": 1}
+    frame = Store(tmp_path / "store").tunings_frame()
+    assert sorted(frame["screen"].fillna(0).astype(int)) == [0, 2]
+    with pytest.raises(ValueError, match="`screen` must be an integer >= 1"):
+        again.add_tuning(**fields, screen=0, params={}, loss=0.5, evaluations=1, seconds=0.1)

@@ -482,6 +482,28 @@ def test_tuning_table_keeps_each_tuning_apart_on_the_interior_and_the_whole_reco
     assert whole["least coverage"] == 0.9 and pd.isna(interior["least coverage"])
 
 
+def test_the_tuning_table_says_which_columns_were_screened():
+    """The note under the tuning table names the columns whose tunings screened the choice
+    combinations, and to how many, from the stored tunings; nothing when none did."""
+    import pandas as pd
+
+    from diffbench.bench.tasks.signal import screening_note
+
+    def tunings(screens):
+        return pd.DataFrame(
+            [
+                {"criterion": "oracle", "tuning_seeds": s, "region": r, "screen": k}
+                for (s, r), k in zip(((1, "interior"), (10, "whole")), screens, strict=True)
+            ]
+        )
+
+    assert screening_note(tunings([None, None])) == ""
+    note = screening_note(tunings([None, 2]))
+    assert "**oracle 10 seeds whole** to the best 2:" in note and "**oracle** " not in note
+    both = screening_note(tunings([3, 2]))
+    assert "**oracle** to the best 3, **oracle 10 seeds whole** to the best 2" in both
+
+
 def test_irregular_samples_are_tuned_at_their_time_stamps_by_the_oracle_only():
     """On jittered samples the oracle scores each setting at the measured times (the
     native finite differences given t, not the nominal grid); data-only criteria, which
@@ -561,18 +583,29 @@ def test_a_window_the_order_tuned_does_not_read_is_fitted_to_a_short_record():
     assert methods.get("jacobi", **result.params)(realisation.x, 0.01, (1,)).estimated(1).all()
 
 
-def test_screening_the_choices_keeps_the_best_and_tunes_it_as_in_full():
+def test_screening_the_choices_keeps_the_best_and_may_give_it_the_budget_of_all():
     """With ``screen_choices=1`` each mode gets one generation and only the best ('b', whose
-    offset is 0 against 1 for the others) is tuned in full: the same setting and loss as the
-    full tuning of every mode (the same seeded evolution for 'b'), for fewer evaluations:
-    two generations of the others' (the Sobol start and one) instead of all six."""
+    offset is 0 against 1 for the others) is tuned in full. Alone, as in full: the same
+    setting and loss as the full tuning of every mode (the same seeded evolution for 'b'),
+    for fewer evaluations. With ``share_budget``, with the budget of all three
+    less the two generations (the Sobol start and one) screening each of the others cost:
+    (3 x 200 - 2 x 2 x 32) // 32 - 1 = 13 generations instead of 200 // 32 - 1 = 5. Its
+    evolution is the full tuning's for 'b' (the same seed) run on, so it ends at least as
+    low; and the whole costs no more than the full tuning's budget."""
     full = tuning.tune("_test_gain", _known_problem(), 1, "oracle")
-    screened = tuning.tune("_test_gain", _known_problem(), 1, "oracle", screen_choices=1)
-    assert screened.params == full.params and screened.loss == full.loss
-    assert screened.params["mode"] == "b"
-    population, generations = 32, 5  # 2 free parameters: popsize 15, rounded up to 2^5
-    assert screened.evaluations <= 3 * 2 * population + (generations - 1) * population
-    assert screened.evaluations < full.evaluations
+    screened = tuning.tune(
+        "_test_gain", _known_problem(), 1, "oracle", screen_choices=1, share_budget=True
+    )
+    assert screened.params["mode"] == "b" and full.params["mode"] == "b"
+    assert screened.loss <= full.loss
+    budget = 200  # 2 free parameters: 100 evaluations each
+    assert full.evaluations <= 3 * budget
+    assert screened.evaluations <= 3 * budget
+    assert screened.params["gain"] == pytest.approx(2.5, rel=2e-3)
+    assert abs(full.params["gain"] - 2.5) > abs(screened.params["gain"] - 2.5)
+    alone = tuning.tune("_test_gain", _known_problem(), 1, "oracle", screen_choices=1)
+    assert (alone.params, alone.loss) == (full.params, full.loss)
+    assert alone.evaluations < full.evaluations
     # keeping at least as many as there are choices is the full tuning
     every = tuning.tune("_test_gain", _known_problem(), 1, "oracle", screen_choices=3)
     assert (every.params, every.loss, every.evaluations) == (
