@@ -8,7 +8,7 @@ This package imports only NumPy, SciPy and the standard library; its only I/O is
 recordings packaged with it (``signals/data``, BSD-3, licence beside the data).
 """
 
-from diffbench.signals import dfki, robot2r, stochastic
+from diffbench.signals import dfki, dynamics, robot2r, stochastic
 from diffbench.signals.clean import (
     Chirp,
     DampedOscillation,
@@ -66,6 +66,7 @@ __all__ = [
     "available_scenarios",
     "available_signals",
     "dfki",
+    "dynamics",
     "get_scenario",
     "get_signal",
     "register_scenario",

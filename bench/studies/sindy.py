@@ -1,0 +1,522 @@
+"""SINDy discovery: which differentiator lets sparse regression find the right equations.
+
+Each system of :mod:`diffbench.signals.dynamics` is measured at a noise level (a fraction of
+each state's standard deviation) and given to pysindy's SINDy with the system's polynomial
+library and sequentially thresholded least squares (STLSQ at the system's stated threshold,
+pysindy's other defaults), so that only the derivative changes from one entry to the next:
+
+* ``truth``: what a perfect differentiator gives, the exact ẋ and the clean states the
+  library is evaluated on (the reference: SINDy recovers the equations to rounding);
+* ``oracle``: a diffbench method (or a wrapped peer) tuned by the truth for ẋ on a noise seed
+  never scored, the loss the mean ẋ RMSE over the states on the middle of the record
+  (:data:`INTERIOR_MARGIN` left out at each end), its trusted ẋ and smoothed states given to
+  SINDy, the library evaluated on the latter, the samples it does not trust left out (the
+  model pysindy fits with :class:`diffbench.methods.for_pysindy.Differentiation`, which marks
+  them NaN for pysindy to leave out);
+* ``preset``: the same at the method's default preset (its windows snapped to the step);
+* ``pysindy``: pysindy's own differentiation, ``FiniteDifference`` (SINDy's default) and
+  ``SmoothedFiniteDifference`` at their defaults, and derivative's methods through
+  ``SINDyDerivative`` at the settings of derivative's README (:data:`DERIVATIVE_README`);
+* ``weak form``: the weak (integral) form of SINDy, ``WeakPDELibrary`` over time with its
+  defaults (its random subdomains drawn with the measurement's seed), which needs no
+  pointwise derivative: the anchor a differentiator must beat.
+
+Scores per seed (:func:`entry_rows`): the coefficient error
+:math:`\\|\\hat\\Xi - \\Xi\\|_F / \\|\\Xi\\|_F` over the library; the support's precision,
+recall and whether it is exact; and the discovered model simulated from the system's held-out
+initial conditions over its horizon, its error the RMS over time and states of
+:math:`(\\hat x_i - x_i)/\\sigma_i` (σ_i the state's spread over the measured trajectory), or
+the time it diverged (left :data:`BLOWUP` times the true trajectory's largest magnitude, or the
+integration failed).
+
+References
+----------
+S. L. Brunton, J. L. Proctor, J. N. Kutz, PNAS 113 (2016) 3932-3937 (SINDy, STLSQ);
+D. A. Messenger, D. M. Bortz, "Weak SINDy: Galerkin-based data-driven model selection",
+Multiscale Model. Simul. 19 (2021) 1474-1497; B. M. de Silva et al., JOSS 5 (2020) 2104 and
+A. A. Kaptanoglu et al., JOSS 7 (2022) 3994 (pysindy).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy.integrate import solve_ivp
+
+from diffbench import methods
+from diffbench.bench.core import search_space, tuning
+from diffbench.bench.core.stats import confidence_interval
+from diffbench.bench.report import figures, tables
+from diffbench.signals.dynamics import PolynomialSystem, get_system
+
+ORDER = 1
+"""SINDy regresses ẋ."""
+
+NOISE_LEVELS = (0.001, 0.01, 0.05, 0.1)
+"""Noise levels, fractions of each state's standard deviation over the measured trajectory."""
+
+INTERIOR_MARGIN = 0.05
+"""The share of the record left out at each end of the oracle's tuning loss."""
+
+BLOWUP = 100.0
+"""A simulated model has diverged once a state leaves this many times the true trajectory's
+largest magnitude."""
+
+MAX_RHS_CALLS = 200_000
+"""A simulation that needs more evaluations of the discovered model (a stiff or exploding
+model) is stopped and counted as diverged at the time it reached."""
+
+SIMULATION_TOLERANCE = 1e-9
+"""Relative and absolute tolerance of the held-out simulations (DOP853)."""
+
+DERIVATIVE_README: dict[str, dict[str, Any]] = {
+    "finite_difference": {"k": 1},
+    "savitzky_golay": {"left": 0.5, "right": 0.5, "order": 3},
+    "spectral": {},
+    "spline": {"s": 1e-2},
+}
+"""derivative's methods at the settings its README shows them with (derivative 0.6), given to
+SINDy through pysindy's ``SINDyDerivative``. Left out for their cost on these records (a
+state of Lorenz, 5001 samples, one call): ``trend_filtered`` (45 s), ``kalman`` (17 s) and
+``kernel`` (dense in the record's length)."""
+
+PYSINDY_DEFAULTS = ("FiniteDifference", "SmoothedFiniteDifference")
+"""pysindy's own differentiation classes, at their defaults."""
+
+
+SCORES = (
+    "coefficient_error",
+    "precision",
+    "recall",
+    "exact_support",
+    "simulation_error",
+    "diverged",
+    "diverged_at_s",
+)
+"""The scores of a seed's row (NaN in the row of a seed that gave no model)."""
+
+
+class _TooManyCalls(Exception):
+    """A held-out simulation needed more than :data:`MAX_RHS_CALLS` evaluations."""
+
+
+def _pysindy():
+    import pysindy
+
+    return pysindy
+
+
+def _library(system: PolynomialSystem):
+    return _pysindy().PolynomialLibrary(degree=system.degree)
+
+
+def _optimizer(system: PolynomialSystem):
+    return _pysindy().STLSQ(threshold=system.threshold)
+
+
+def _pysindy_differentiation(entry: dict[str, Any]):
+    """pysindy's differentiation object of a ``pysindy`` entry."""
+    ps = _pysindy()
+    if entry["method"] in PYSINDY_DEFAULTS:
+        return getattr(ps, entry["method"])()
+    kind = entry["method"].removeprefix("SINDyDerivative.")
+    return ps.SINDyDerivative(kind=kind, **entry["params"])
+
+
+def discover(
+    system: PolynomialSystem, measurement, entry: dict[str, Any]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The coefficients Ξ̂ (states by library features, the library's own order) SINDy finds
+    on ``measurement`` with ``entry``'s derivative (see the module docstring), and the
+    library's monomials: ``(coefficients, powers)``."""
+    ps = _pysindy()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # pysindy's convergence and ill-conditioning remarks
+        if entry["source"] == "weak form":
+            # its subdomains are drawn from numpy's global generator when the library is
+            # built: seeded by the measurement's seed (and given back), so a run reproduces
+            state = np.random.get_state()  # noqa: NPY002 (pysindy's generator, not ours)
+            np.random.seed(measurement.seed)  # noqa: NPY002
+            try:
+                function_library = _library(system)
+                library = ps.WeakPDELibrary(
+                    function_library=function_library,
+                    spatiotemporal_grid=measurement.t,
+                    is_uniform=True,
+                )
+                model = ps.SINDy(feature_library=library, optimizer=_optimizer(system))
+                model.fit(measurement.x, t=measurement.t)
+            finally:
+                np.random.set_state(state)  # noqa: NPY002
+            powers = function_library.powers_
+        else:
+            library = _library(system)
+            if entry["source"] == "pysindy":
+                model = ps.SINDy(
+                    feature_library=library,
+                    optimizer=_optimizer(system),
+                    differentiation_method=_pysindy_differentiation(entry),
+                )
+                model.fit(measurement.x, t=measurement.dt_s)
+            else:
+                model = ps.SINDy(feature_library=library, optimizer=_optimizer(system))
+                if entry["source"] == "truth":  # a perfect differentiator's states and rates
+                    states, rates = measurement.truth.x, measurement.truth.x_dot
+                else:
+                    method = methods.get(entry["method"], **entry["params"])
+                    estimate = method(measurement.x, measurement.dt_s, orders=(0, ORDER))
+                    states, rates = estimate.trusted(0), estimate.trusted(ORDER)
+                kept = np.isfinite(states).all(axis=1) & np.isfinite(rates).all(axis=1)
+                model.fit(states[kept], t=measurement.dt_s, x_dot=rates[kept])
+            powers = library.powers_
+    return np.asarray(model.coefficients(), dtype=float), np.asarray(powers, dtype=int)
+
+
+def coefficient_scores(found: np.ndarray, truth: np.ndarray) -> dict[str, float]:
+    """``coefficient_error`` (‖Ξ̂ − Ξ‖_F / ‖Ξ‖_F), the support's ``precision`` (true terms
+    among those found; 0 when none is found), ``recall`` (found among the true ones) and
+    ``exact_support`` (1.0 when the terms found are exactly the true ones)."""
+    found_terms, true_terms = found != 0, truth != 0
+    hits = int(np.sum(found_terms & true_terms))
+    return {
+        "coefficient_error": float(np.linalg.norm(found - truth) / np.linalg.norm(truth)),
+        "precision": hits / int(found_terms.sum()) if found_terms.any() else 0.0,
+        "recall": hits / int(true_terms.sum()),
+        "exact_support": float(np.array_equal(found_terms, true_terms)),
+    }
+
+
+def simulate(
+    system: PolynomialSystem, found: np.ndarray, powers: np.ndarray, initial, spread
+) -> tuple[float, float]:
+    """The discovered model ẋ = Θ(x) Ξ̂ᵀ from ``initial`` over the system's horizon against
+    the true trajectory: ``(error, diverged_at_s)``, the error the RMS over time and states of
+    the difference over each state's ``spread`` (inf if it diverged), ``diverged_at_s`` the
+    time it diverged (NaN if it did not)."""
+    truth = system.trajectory(initial, system.horizon_s)
+    limit = BLOWUP * float(np.abs(truth.x).max())
+    calls = [0]
+
+    def rhs(_t, state):
+        calls[0] += 1
+        if calls[0] > MAX_RHS_CALLS:
+            raise _TooManyCalls(_t)
+        return np.prod(state[None, :] ** powers, axis=1) @ found.T
+
+    def escaped(_t, state):
+        return limit - float(np.abs(state).max())
+
+    escaped.terminal = True
+    try:
+        solution = solve_ivp(
+            rhs,
+            (0.0, truth.t[-1]),
+            np.asarray(initial, dtype=float),
+            method="DOP853",
+            t_eval=truth.t,
+            events=escaped,
+            rtol=SIMULATION_TOLERANCE,
+            atol=SIMULATION_TOLERANCE,
+        )
+    except _TooManyCalls as stopped:
+        return math.inf, float(stopped.args[0])
+    if solution.status == 1:  # the escape event ended it
+        return math.inf, float(solution.t_events[0][0])
+    if solution.status != 0:  # the integration failed: at the last time it reached
+        return math.inf, float(solution.t[-1]) if solution.t.size else 0.0
+    difference = (solution.y.T - truth.x) / spread
+    return float(np.sqrt(np.mean(difference**2))), math.nan
+
+
+def _channels(measurement, margin: float = INTERIOR_MARGIN) -> list[SimpleNamespace]:
+    """Each state of ``measurement`` as a realisation the tuner reads (samples, step, the
+    middle of the record as the interior, the exact ẋ as the truth)."""
+    n = measurement.x.shape[0]
+    cut = math.ceil(margin * n)
+    interior = np.zeros(n, dtype=bool)
+    interior[cut : n - cut] = True
+    return [
+        SimpleNamespace(
+            x=measurement.x[:, i],
+            dt_s=measurement.dt_s,
+            interior=interior,
+            truth={ORDER: measurement.truth.x_dot[:, i]},
+        )
+        for i in range(measurement.x.shape[1])
+    ]
+
+
+def oracle_params(system_name: str, level: float, method: str) -> dict[str, Any]:
+    """``method`` tuned by the truth for ẋ on the measurement at
+    :data:`~diffbench.bench.core.tuning.TUNING_SEED` (never scored): the mean over the states
+    of the ẋ RMSE on the record's middle (:func:`_channels`). Returns
+    ``{"params", "loss"}``."""
+    system = get_system(system_name)
+    measurement = system.measure(level, tuning.TUNING_SEED)
+    result = tuning.tune(method, _channels(measurement), ORDER, "oracle")
+    if not math.isfinite(result.loss):
+        raise ValueError(f"{method} has no setting that estimates {system_name}'s middle")
+    return {"params": result.params, "loss": result.loss}
+
+
+def preset_params(method: str, dt: float) -> dict[str, Any]:
+    """The parameters of ``method``'s default preset, its windows snapped to whole even
+    numbers of steps ``dt`` (the presets are the paper signal's, at 1 ms)."""
+    cls = methods.method_class(method)
+    key = (
+        methods.DEFAULT_PRESET if methods.DEFAULT_PRESET in cls.presets else next(iter(cls.presets))
+    )
+    return search_space.snap(methods.preset(method, key).params(), dt, methods.params_of(cls))
+
+
+def entry_rows(system_name: str, level: float, entry: dict[str, Any], seeds: int) -> list[dict]:
+    """Per seed 0..seeds-1: ``entry`` (``source``, ``method``, ``params``) on ``system_name``
+    measured at ``level``, scored (:func:`coefficient_scores`; the held-out simulations'
+    mean ``simulation_error`` and the earliest ``diverged_at_s``, with ``diverged`` the count
+    of those that diverged); ``failure`` says why an entry gave no model (empty otherwise)."""
+    system = get_system(system_name)
+    spread = system.trajectory().x.std(axis=0)
+    rows = []
+    for seed in range(seeds):
+        measurement = system.measure(level, seed)
+        row: dict[str, Any] = {"seed": seed, "failure": ""}
+        try:
+            found, powers = discover(system, measurement, entry)
+        except ValueError as error:  # a setting the record refuses, or no trusted sample
+            rows.append({**row, **dict.fromkeys(SCORES, math.nan), "failure": str(error)})
+            continue
+        row.update(coefficient_scores(found, system.coefficient_matrix(powers)))
+        runs = [simulate(system, found, powers, start, spread) for start in system.held_out]
+        errors, times = zip(*runs, strict=True)
+        row["simulation_error"] = float(np.mean(errors))
+        row["diverged"] = int(sum(math.isfinite(t) for t in times))
+        row["diverged_at_s"] = float(np.nanmin(times)) if row["diverged"] else math.nan
+        rows.append(row)
+    return rows
+
+
+# --- the report ------------------------------------------------------------------------------
+SOURCE_ORDER = ("truth", "oracle", "preset", "pysindy", "weak form")
+"""How the entries' sources are listed."""
+
+
+def entry_label(source: str, method: str) -> str:
+    """An entry as a table names it: ``method (source)``."""
+    return method if source in ("truth", "weak form", "pysindy") else f"{method} ({source})"
+
+
+def entries_frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
+    """One row per entry (system, level, source, method) from the per-seed rows: the mean
+    coefficient error and the half-width of its 95 % interval over the seeds (Student's t;
+    NaN for one seed), the mean precision and recall,
+    the share of seeds with the exact support, the median simulation error and the seeds
+    whose simulations diverged."""
+    frame = pd.DataFrame(rows)
+    frame["failed"] = frame["failure"].fillna("") != ""
+    keys = ["system", "level", "source", "method"]
+    out = []
+    for key, group in frame.groupby(keys, sort=False):
+        scored = group[~group["failed"]]
+        errors = scored["coefficient_error"].to_numpy(dtype=float)
+        half = confidence_interval(errors)[1] if errors.size else math.nan
+        out.append(
+            {
+                **dict(zip(keys, key, strict=True)),
+                "entry": entry_label(key[2], key[3]),
+                "params": group["params"].iloc[0],
+                "seeds": int(group["seed"].nunique()),
+                "failed": int(group["failed"].sum()),
+                "coefficient_error": float(errors.mean()) if errors.size else math.nan,
+                "ci_half": half,
+                "precision": float(scored["precision"].mean()) if len(scored) else math.nan,
+                "recall": float(scored["recall"].mean()) if len(scored) else math.nan,
+                "exact_support": float(scored["exact_support"].mean()) if len(scored) else 0.0,
+                "simulation_error": (
+                    float(scored["simulation_error"].median()) if len(scored) else math.nan
+                ),
+                "diverged_seeds": int((scored["diverged"] > 0).sum()) if len(scored) else 0,
+            }
+        )
+    return pd.DataFrame(out)
+
+
+def _contenders(part: pd.DataFrame) -> pd.DataFrame:
+    """The entries a winner is chosen among: every one but the truth, scored on every seed."""
+    return part[(part["source"] != "truth") & (part["failed"] == 0)].dropna(
+        subset=["coefficient_error"]
+    )
+
+
+def summary_table(entries: pd.DataFrame) -> pd.DataFrame:
+    """Per system and noise level: the entry with the least mean coefficient error, its
+    margin over the next (their ratio), the weak form's error and the winner's ratio to it,
+    and the best pointwise differentiator's ratio to the weak form (< 1: it beats it)."""
+    rows = []
+    for (system, level), part in entries.groupby(["system", "level"], sort=False):
+        ranked = _contenders(part).sort_values("coefficient_error")
+        weak = part[part["source"] == "weak form"]["coefficient_error"]
+        weak_error = float(weak.iloc[0]) if len(weak) else math.nan
+        pointwise = ranked[ranked["source"] != "weak form"]
+        best, second = (ranked.iloc[0], ranked.iloc[1]) if len(ranked) > 1 else (None, None)
+        rows.append(
+            {
+                "system": system,
+                "noise": f"{level:.1%}",
+                "winner": "—" if best is None else best["entry"],
+                "its error": math.nan if best is None else best["coefficient_error"],
+                "exact support": math.nan if best is None else best["exact_support"],
+                "next": "—" if second is None else second["entry"],
+                "margin": (
+                    math.nan
+                    if best is None
+                    else second["coefficient_error"] / best["coefficient_error"]
+                    if best["coefficient_error"] > 0
+                    else math.inf
+                ),
+                "weak form's error": weak_error,
+                "best pointwise": "—" if pointwise.empty else pointwise.iloc[0]["entry"],
+                "its error ": math.nan
+                if pointwise.empty
+                else pointwise.iloc[0]["coefficient_error"],
+                "best pointwise / weak form": (
+                    math.nan
+                    if pointwise.empty or not weak_error
+                    else pointwise.iloc[0]["coefficient_error"] / weak_error
+                ),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def support_table(entries: pd.DataFrame) -> pd.DataFrame:
+    """Per system, each entry's share of seeds with the exact support at every noise level
+    (columns): where it stops recovering the right equations."""
+    table = entries.pivot_table(
+        index=["system", "entry"], columns="level", values="exact_support", sort=False
+    )
+    table.columns = [f"{level:.1%}" for level in table.columns]
+    return table.reset_index()
+
+
+def system_table(entries: pd.DataFrame, system: str) -> pd.DataFrame:
+    """One system: every entry's mean coefficient error (95 % interval) and share of exact
+    supports at each noise level, the best at the highest level first."""
+    part = entries[entries["system"] == system]
+    levels = sorted(part["level"].unique())
+    order = part[part["level"] == levels[-1]].sort_values("coefficient_error")["entry"].tolist()
+    rows = []
+    for entry in order:
+        mine = part[part["entry"] == entry].set_index("level")
+        row = {"entry": entry}
+        for level in levels:
+            if level not in mine.index:
+                row[f"{level:.1%}"] = "—"
+                continue
+            found = mine.loc[level]
+            row[f"{level:.1%}"] = (
+                f"{tables.plus_minus(found['coefficient_error'], found['ci_half'])}"
+                f" ({found['exact_support']:.0%} exact)"
+            )
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def write_figure(entries: pd.DataFrame, path: Path) -> Path:
+    """Coefficient error against noise level, one panel per system, one line per entry with
+    its 95 % interval over the seeds (log-log)."""
+    plt = figures.pyplot()
+    systems = list(dict.fromkeys(entries["system"]))
+    columns = min(3, len(systems))
+    rows = math.ceil(len(systems) / columns)
+    fig, axes = plt.subplots(rows, columns, figsize=(5 * columns, 3.8 * rows), squeeze=False)
+    names = list(dict.fromkeys(entries["entry"]))
+    styles = figures.method_styles(names)
+    for axis, system in zip(axes.flat, systems, strict=False):
+        part = entries[(entries["system"] == system) & (entries["source"] != "truth")]
+        for entry, group in part.groupby("entry", sort=False):
+            group = group.sort_values("level")
+            style = styles[entry]
+            axis.errorbar(
+                group["level"],
+                group["coefficient_error"].clip(lower=1e-16),
+                yerr=[
+                    np.minimum(group["ci_half"], 0.9 * group["coefficient_error"]),
+                    group["ci_half"],
+                ],
+                label=entry,
+                color=style.color,
+                linestyle=style.linestyle,
+                marker=style.marker,
+                capsize=2,
+            )
+        axis.set_xscale("log")
+        axis.set_yscale("log")
+        axis.set_title(system)
+        axis.set_xlabel("noise (fraction of each state's std)")
+        axis.set_ylabel("coefficient error ‖Ξ̂ − Ξ‖ / ‖Ξ‖")
+    for axis in list(axes.flat)[len(systems) :]:
+        axis.axis("off")
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize="small")
+    fig.subplots_adjust(bottom=0.12 + 0.03 * math.ceil(len(names) / 4))
+    return figures.save_figure(fig, path, tight=False)
+
+
+def _shown(frame: pd.DataFrame) -> pd.DataFrame:
+    shown = frame.copy()
+    for column in shown.columns:
+        if pd.api.types.is_float_dtype(shown[column]):
+            shown[column] = shown[column].map(
+                lambda v: "∞" if v == math.inf else tables.nan_to_dash(v, 3)
+            )
+    return shown
+
+
+def write_report(rows: list[dict[str, Any]], directory: Path, seeds: int) -> list[Path]:
+    """``summary.md``/``.csv`` (the winner per system and noise level), ``support.md``/``.csv``
+    (where each entry stops recovering the support), ``<system>.md``/``.csv`` per system,
+    ``entries.csv`` (every entry's scores) and ``coefficient_error.png``."""
+    directory.mkdir(parents=True, exist_ok=True)
+    entries = entries_frame(rows)
+    legend = (
+        f"Mean over {seeds} noise seeds (Gaussian, the level times each state's std over the "
+        "trajectory, `numpy.random.default_rng(seed)`). **coefficient error**: "
+        "‖Ξ̂ − Ξ‖_F / ‖Ξ‖_F over the system's polynomial library (STLSQ at the system's "
+        "threshold, pysindy's other defaults); **exact**: the share of seeds whose terms are "
+        "exactly the true ones. *oracle*: tuned by the truth for ẋ on the seed "
+        f"{tuning.TUNING_SEED} (never scored); *preset*: the method's default preset; "
+        "pysindy's classes at their defaults, derivative's methods (SINDyDerivative.*) at its "
+        "README's settings; **weak form**: pysindy's WeakPDELibrary over time, no pointwise "
+        "derivative. Margin: the next entry's error over the winner's."
+    )
+    written = tables.write_report(
+        directory,
+        "summary",
+        summary_table(entries),
+        _shown(summary_table(entries)),
+        "SINDy discovery: the differentiator that finds the equations best, per system and "
+        "noise level",
+        legend,
+    )
+    support = support_table(entries)
+    written += tables.write_report(
+        directory,
+        "support",
+        support,
+        _shown(support),
+        "Exact support: the share of seeds each entry finds exactly the true terms",
+        legend,
+    )
+    for system in dict.fromkeys(entries["system"]):
+        table = system_table(entries, system)
+        title = f"{system}: coefficient error (95 % interval) and exact supports"
+        written += tables.write_report(directory, system, table, table, title, legend)
+    written.append(tables.write_csv(directory / "entries.csv", entries))
+    written.append(write_figure(entries, directory / "coefficient_error.png"))
+    return written

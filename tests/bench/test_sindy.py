@@ -1,0 +1,154 @@
+"""The SINDy discovery study: exact truth recovers every system, the scores are taken against
+the true library, a diverging model is caught at its analytic blow-up time, every entry runs
+as a row (pysindy's defaults and the weak form included), and the report is written."""
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from diffbench.bench.studies import sindy
+from diffbench.bench.tasks.sindy import SindyStudy
+from diffbench.signals.dynamics import SYSTEMS, get_system
+
+EPS = np.finfo(float).eps
+TRUTH = {"source": "truth", "method": "exact ẋ", "params": {}}
+
+
+@pytest.mark.parametrize("name", sorted(SYSTEMS))
+def test_the_exact_derivatives_recover_every_system_to_rounding(name):
+    """With the exact ẋ and states, STLSQ at the system's threshold keeps exactly the true
+    terms and its least-squares refit on them recovers the coefficients: the relative error
+    is within rounding amplified by the condition number of the library's true columns."""
+    system = get_system(name)
+    measurement = system.measure(0.1, seed=1)  # the truth entry reads the clean states
+    found, powers = sindy.discover(system, measurement, TRUTH)
+    truth = system.coefficient_matrix(powers)
+    scores = sindy.coefficient_scores(found, truth)
+    assert scores["exact_support"] == 1.0 and scores["precision"] == scores["recall"] == 1.0
+    features = np.prod(measurement.truth.x[:, None, :] ** powers, axis=2)
+    condition = np.linalg.cond(features[:, np.any(truth != 0, axis=0)])
+    assert scores["coefficient_error"] <= 100 * EPS * condition
+    assert scores["coefficient_error"] <= 1e-6
+
+
+def test_the_scores_are_taken_against_the_true_library():
+    """Lorenz's terms land on pysindy's feature names (x0 x2 in ẏ, x0 x1 in ż); precision,
+    recall and the exact support count terms found against the true ones."""
+    import pysindy as ps
+
+    system = get_system("lorenz")
+    library = ps.PolynomialLibrary(degree=3).fit(np.ones((4, 3)))
+    truth = system.coefficient_matrix(library.powers_)
+    names = library.get_feature_names()
+    assert truth[1, names.index("x0 x2")] == -1 and truth[2, names.index("x0 x1")] == 1
+    assert truth[2, names.index("x2")] == pytest.approx(-8 / 3)
+    assert np.count_nonzero(truth) == 7
+    found = truth.copy()
+    found[0, names.index("1")] = 0.5  # one spurious term
+    found[2, names.index("x0 x1")] = 0.0  # one term missed
+    found[0, names.index("x0")] = -11.0
+    scores = sindy.coefficient_scores(found, truth)
+    assert scores["precision"] == 6 / 7 and scores["recall"] == 6 / 7
+    assert scores["exact_support"] == 0.0
+    expected = math.sqrt(0.5**2 + 1**2 + 1**2) / np.linalg.norm(truth)
+    assert scores["coefficient_error"] == pytest.approx(expected, rel=4 * EPS)
+    assert sindy.coefficient_scores(np.zeros_like(truth), truth)["precision"] == 0.0
+
+
+def test_a_diverging_model_is_caught_when_it_leaves_the_bound():
+    """ẋ = x², y' = 0 from (x0, y0) blows up at 1/x0; it leaves BLOWUP x the true
+    trajectory's largest magnitude L at t = 1/x0 - 1/(BLOWUP L): the time reported, to the
+    integration's tolerance, with an infinite error. The true model simulates to within its
+    tolerance."""
+    system = get_system("lotka-volterra")
+    powers = np.array([[0, 0], [1, 0], [0, 1], [2, 0], [1, 1]])
+    exploding = np.array([[0.0, 0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 0.0, 0.0]])
+    start = system.held_out[0]
+    spread = system.trajectory().x.std(axis=0)
+    error, diverged_at = sindy.simulate(system, exploding, powers, start, spread)
+    largest = np.abs(system.trajectory(start, system.horizon_s).x).max()
+    expected = 1 / start[0] - 1 / (sindy.BLOWUP * largest)
+    assert error == math.inf and diverged_at == pytest.approx(expected, rel=1e-6)
+    true = system.coefficient_matrix(powers)
+    error, diverged_at = sindy.simulate(system, true, powers, start, spread)
+    assert math.isnan(diverged_at) and error <= 1e3 * sindy.SIMULATION_TOLERANCE
+
+
+def test_the_perfect_differentiator_scores_perfectly_and_pysindys_default_runs():
+    """The truth entry: no coefficient error beyond rounding, the exact support, held-out
+    simulations within the integration's tolerance. pysindy's default
+    (SmoothedFiniteDifference) and the weak form give rows with finite scores, reproducibly
+    (the weak form's random subdomains are seeded)."""
+    perfect = sindy.entry_rows("linear-oscillator", 0.05, TRUTH, 2)
+    for row in perfect:
+        assert row["coefficient_error"] <= 1e-12 and row["exact_support"] == 1.0
+        assert row["simulation_error"] <= 1e3 * sindy.SIMULATION_TOLERANCE
+        assert row["diverged"] == 0 and row["failure"] == ""
+    for entry in (
+        {"source": "pysindy", "method": "SmoothedFiniteDifference", "params": {}},
+        {"source": "weak form", "method": "WeakPDELibrary", "params": {}},
+    ):
+        rows = sindy.entry_rows("linear-oscillator", 0.05, entry, 2)
+        assert all(0 < row["coefficient_error"] < 0.1 for row in rows)
+        assert rows == sindy.entry_rows("linear-oscillator", 0.05, entry, 2)
+
+
+def test_the_study_tunes_scores_and_reports_every_entry(tmp_path):
+    """One system at one level, one native method: its oracle-tuned and preset entries, the
+    truth, pysindy's and derivative's, the weak form; each item's rows, then the report."""
+    study = SindyStudy(systems=("linear-oscillator",), levels=(0.05,), name="sindy-test")
+    items = study.items(["spectral"], range(2))
+    sources = [item.setting["source"] for item in items]
+    assert sources.count("oracle") == sources.count("preset") == 1
+    assert sources.count("truth") == sources.count("weak form") == 1
+    assert sources.count("pysindy") == len(sindy.PYSINDY_DEFAULTS) + len(sindy.DERIVATIVE_README)
+    rows = {item: study.compute(item) for item in items}
+    for item, found in rows.items():
+        assert [row["seed"] for row in found] == [0, 1], item
+        assert all(row["failure"] == "" for row in found), item
+    oracle = next(found for item, found in rows.items() if item.setting["source"] == "oracle")
+    assert oracle[0]["params"]["cutoff_hz"] > 0 and oracle[0]["tuned_loss"] > 0
+    written = study.write(rows, tmp_path)
+    assert {path.name for path in written} >= {
+        "summary.md",
+        "support.md",
+        "linear-oscillator.md",
+        "coefficient_error.png",
+    }
+    summary = pd.read_csv(tmp_path / "summary.csv")
+    entries = pd.read_csv(tmp_path / "entries.csv")
+    contenders = entries[entries["source"] != "truth"]
+    best = contenders.loc[contenders["coefficient_error"].idxmin()]
+    assert summary.loc[0, "winner"] == best["entry"]
+    weak = entries.loc[entries["source"] == "weak form", "coefficient_error"].item()
+    assert summary.loc[0, "weak form's error"] == pytest.approx(weak)
+
+
+def test_an_unknown_system_or_method_is_named():
+    with pytest.raises(ValueError, match="unknown system 'lorenx'"):
+        SindyStudy(systems=("lorenx",))
+    with pytest.raises(ValueError, match="spectrall"):
+        SindyStudy().entries(["spectrall"])
+
+
+def test_a_native_entry_is_what_the_pysindy_adapter_gives():
+    """The study gives SINDy a method's trusted ẋ and smoothed states itself: the same model
+    as pysindy fitting with diffbench's Differentiation adapter, bit for bit."""
+    import pysindy as ps
+
+    from diffbench.methods.for_pysindy import Differentiation
+
+    system = get_system("duffing")
+    measurement = system.measure(0.05, seed=2)
+    params = {"window_s": 0.4, "degree": 3}
+    entry = {"source": "preset", "method": "savitzky_golay", "params": params}
+    found, _ = sindy.discover(system, measurement, entry)
+    model = ps.SINDy(
+        feature_library=ps.PolynomialLibrary(degree=system.degree),
+        optimizer=ps.STLSQ(threshold=system.threshold),
+        differentiation_method=Differentiation("savitzky_golay", params),
+    )
+    model.fit(measurement.x, t=system.dt_s)
+    assert np.array_equal(found, model.coefficients())
