@@ -31,7 +31,8 @@ $(STAMP): pyproject.toml constraints.txt
 # setting of ours). online-paper-signal runs the causal methods at sweeps of their settings,
 # online-2r-loop the same settings in the simulated robot's 1 kHz PD loop. recommend-check
 # scores the data-only recommendation on every uniformly sampled noisy scenario; the example
-# recommends on an exported record a user would have (seeded: the same every time).
+# recommends on an exported record a user would have (seeded: the same every time). sindy:
+# which differentiator lets SINDy find six systems' equations, against the weak form.
 GRID_PEERS := pynumdiff.spectraldiff,pynumdiff.butterdiff,pynumdiff.savgoldiff,pynumdiff.kerneldiff,derivative.spectral
 SPECTRAL_PEERS := pynumdiff.spectraldiff,derivative.spectral
 # PyNumDiff's counterparts of Kalman and Jacobi (issue 45's targets), tuned on the whole record
@@ -91,6 +92,7 @@ studies: $(STAMP)
 	  --out $(STUDIES)
 	$(BIN)/diffbench run pareto --methods native --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench run pynumdiff-suite --jobs 2 --out $(STUDIES)
+	$(BIN)/diffbench run sindy --jobs 2 --out $(STUDIES)
 	$(BIN)/diffbench export pendulum-500hz-jitter $(STUDIES)/recommend-example/pendulum.csv
 	$(BIN)/diffbench recommend $(STUDIES)/recommend-example/pendulum.csv --time t --column x \
 	  --dt 0.002 --methods native,$(GRID_PEERS) --out $(STUDIES)/recommend-example

@@ -13,6 +13,8 @@ pysindy's other defaults), so that only the derivative changes from one entry to
   SINDy, the library evaluated on the latter, the samples it does not trust left out (the
   model pysindy fits with :class:`diffbench.methods.for_pysindy.Differentiation`, which marks
   them NaN for pysindy to leave out);
+* ``recommend``: the same at the setting ``diffbench recommend`` chooses for each state from
+  the measurement of that tuning seed alone (no truth; :func:`recommended_params`);
 * ``preset``: the same at the method's default preset (its windows snapped to the step);
 * ``pysindy``: pysindy's own differentiation, ``FiniteDifference`` (SINDy's default) and
   ``SmoothedFiniteDifference`` at their defaults, and derivative's methods through
@@ -53,6 +55,7 @@ from diffbench import methods
 from diffbench.bench.core import search_space, tuning
 from diffbench.bench.core.stats import confidence_interval
 from diffbench.bench.report import figures, tables
+from diffbench.bench.studies import recommend as advice
 from diffbench.signals.dynamics import PolynomialSystem, get_system
 
 ORDER = 1
@@ -169,13 +172,28 @@ def discover(
                 if entry["source"] == "truth":  # a perfect differentiator's states and rates
                     states, rates = measurement.truth.x, measurement.truth.x_dot
                 else:
-                    method = methods.get(entry["method"], **entry["params"])
-                    estimate = method(measurement.x, measurement.dt_s, orders=(0, ORDER))
-                    states, rates = estimate.trusted(0), estimate.trusted(ORDER)
+                    states, rates = _estimated(measurement, entry)
                 kept = np.isfinite(states).all(axis=1) & np.isfinite(rates).all(axis=1)
                 model.fit(states[kept], t=measurement.dt_s, x_dot=rates[kept])
             powers = library.powers_
     return np.asarray(model.coefficients(), dtype=float), np.asarray(powers, dtype=int)
+
+
+def _estimated(measurement, entry: dict[str, Any]) -> tuple[np.ndarray, np.ndarray]:
+    """The smoothed states and ẋ ``entry``'s method trusts (NaN elsewhere): at its one
+    setting for every state, or (``recommend``) each state divided by its scale at its own
+    setting, multiplied back."""
+    if entry["source"] != "recommend":
+        method = methods.get(entry["method"], **entry["params"])
+        estimate = method(measurement.x, measurement.dt_s, orders=(0, ORDER))
+        return estimate.trusted(0), estimate.trusted(ORDER)
+    states, rates = np.empty_like(measurement.x), np.empty_like(measurement.x)
+    chosen = zip(entry["params"]["states"], entry["params"]["scales"], strict=True)
+    for i, (params, scale) in enumerate(chosen):
+        method = methods.get(entry["method"], **params)
+        estimate = method(measurement.x[:, i] / scale, measurement.dt_s, orders=(0, ORDER))
+        states[:, i], rates[:, i] = scale * estimate.trusted(0), scale * estimate.trusted(ORDER)
+    return states, rates
 
 
 def coefficient_scores(found: np.ndarray, truth: np.ndarray) -> dict[str, float]:
@@ -265,10 +283,26 @@ def oracle_params(system_name: str, level: float, method: str) -> dict[str, Any]
     return {"params": result.params, "loss": result.loss}
 
 
+def recommended_params(system_name: str, level: float, method: str) -> dict[str, Any]:
+    """``method``'s setting for each state as ``diffbench recommend`` chooses it from the
+    measurement at :data:`~diffbench.bench.core.tuning.TUNING_SEED` alone (no truth; ẋ over
+    the record less 5 % at each end): ``{"states": [params, ...], "scales": [...]}``, each
+    setting for its state divided by its scale (:func:`advice.record_scale`)."""
+    measurement = get_system(system_name).measure(level, tuning.TUNING_SEED)
+    states, scales = [], []
+    for i in range(measurement.x.shape[1]):
+        found = advice.recommend(measurement.x[:, i], measurement.dt_s, [method], (ORDER,))
+        states.append(found.best(ORDER)[1])  # ValueError when the method failed there
+        scales.append(found.scale)
+    return {"states": states, "scales": scales}
+
+
 def preset_params(method: str, dt: float) -> dict[str, Any]:
     """The parameters of ``method``'s default preset, its windows snapped to whole even
     numbers of steps ``dt`` (the presets are the paper signal's, at 1 ms)."""
     cls = methods.method_class(method)
+    if not cls.presets:
+        raise ValueError(f"{method} has no preset")
     key = (
         methods.DEFAULT_PRESET if methods.DEFAULT_PRESET in cls.presets else next(iter(cls.presets))
     )
@@ -302,10 +336,6 @@ def entry_rows(system_name: str, level: float, entry: dict[str, Any], seeds: int
 
 
 # --- the report ------------------------------------------------------------------------------
-SOURCE_ORDER = ("truth", "oracle", "preset", "pysindy", "weak form")
-"""How the entries' sources are listed."""
-
-
 def entry_label(source: str, method: str) -> str:
     """An entry as a table names it: ``method (source)``."""
     return method if source in ("truth", "weak form", "pysindy") else f"{method} ({source})"
@@ -490,7 +520,9 @@ def write_report(rows: list[dict[str, Any]], directory: Path, seeds: int) -> lis
         "‖Ξ̂ − Ξ‖_F / ‖Ξ‖_F over the system's polynomial library (STLSQ at the system's "
         "threshold, pysindy's other defaults); **exact**: the share of seeds whose terms are "
         "exactly the true ones. *oracle*: tuned by the truth for ẋ on the seed "
-        f"{tuning.TUNING_SEED} (never scored); *preset*: the method's default preset; "
+        f"{tuning.TUNING_SEED} (never scored); *recommend*: the setting `diffbench recommend` "
+        "chooses for each state from that seed's measurement alone; *preset*: the method's "
+        "default preset; "
         "pysindy's classes at their defaults, derivative's methods (SINDyDerivative.*) at its "
         "README's settings; **weak form**: pysindy's WeakPDELibrary over time, no pointwise "
         "derivative. Margin: the next entry's error over the winner's."

@@ -35,7 +35,7 @@ tuning calls a method hundreds of times; ``--methods`` adds them)."""
 def _package(source: str, method: str) -> str:
     if source in ("pysindy", "weak form"):
         return "pysindy"
-    return methods.package_of(method) if source in ("oracle", "preset") else "—"
+    return methods.package_of(method) if source in ("oracle", "recommend", "preset") else "—"
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,6 +66,7 @@ class SindyStudy(ItemStudy):
         entries = [{"source": "truth", "method": "exact ẋ", "params": {}}]
         for name in names:
             entries.append({"source": "oracle", "method": name, "params": None})
+            entries.append({"source": "recommend", "method": name, "params": None})
             if "." not in name:  # a native method: its preset too
                 entries.append({"source": "preset", "method": name, "params": None})
         entries += [
@@ -91,19 +92,21 @@ class SindyStudy(ItemStudy):
         setting = dict(item.setting)
         source, method, level = setting["source"], setting["method"], setting["level"]
         tuned_loss = None
-        if source == "oracle":
-            try:
+        try:
+            if source == "oracle":
                 found = study.oracle_params(item.name, level, method)
                 setting["params"], tuned_loss = found["params"], found["loss"]
-            except ValueError as error:  # no setting covers the record's middle
-                failed = {
-                    "seed": 0,
-                    **dict.fromkeys(study.SCORES, float("nan")),
-                    "failure": f"not tuned: {error}",
-                }
-                return [_json({**self._described(item.name, setting), **failed})]
-        elif source == "preset":
-            setting["params"] = study.preset_params(method, get_system(item.name).dt_s)
+            elif source == "recommend":
+                setting["params"] = study.recommended_params(item.name, level, method)
+            elif source == "preset":
+                setting["params"] = study.preset_params(method, get_system(item.name).dt_s)
+        except ValueError as error:  # no setting covers the record: one row says why
+            failed = {
+                "seed": 0,
+                **dict.fromkeys(study.SCORES, float("nan")),
+                "failure": f"no {source} setting: {error}",
+            }
+            return [_json({**self._described(item.name, setting), **failed})]
         described = self._described(item.name, setting)
         described["tuned_loss"] = tuned_loss
         rows = study.entry_rows(item.name, level, setting, setting["seeds"])

@@ -101,7 +101,7 @@ def test_the_study_tunes_scores_and_reports_every_entry(tmp_path):
     study = SindyStudy(systems=("linear-oscillator",), levels=(0.05,), name="sindy-test")
     items = study.items(["spectral"], range(2))
     sources = [item.setting["source"] for item in items]
-    assert sources.count("oracle") == sources.count("preset") == 1
+    assert sources.count("oracle") == sources.count("recommend") == sources.count("preset") == 1
     assert sources.count("truth") == sources.count("weak form") == 1
     assert sources.count("pysindy") == len(sindy.PYSINDY_DEFAULTS) + len(sindy.DERIVATIVE_README)
     rows = {item: study.compute(item) for item in items}
@@ -152,3 +152,24 @@ def test_a_native_entry_is_what_the_pysindy_adapter_gives():
     )
     model.fit(measurement.x, t=system.dt_s)
     assert np.array_equal(found, model.coefficients())
+
+
+def test_the_recommended_setting_is_chosen_from_the_noisy_data_alone(monkeypatch):
+    """recommend's setting for each state is the same when the measurement's truth is
+    replaced by NaN: it reads the samples only. Each state gets its own setting and scale."""
+    import dataclasses
+
+    from diffbench.signals import dynamics
+
+    first = sindy.recommended_params("van-der-pol", 0.05, "spectral")
+    assert len(first["states"]) == len(first["scales"]) == 2
+    measure = dynamics.PolynomialSystem.measure
+
+    def blind(self, level, seed):
+        measured = measure(self, level, seed)
+        nothing = np.full_like(measured.truth.x, np.nan)
+        truth = dataclasses.replace(measured.truth, x=nothing, x_dot=nothing)
+        return dataclasses.replace(measured, truth=truth)
+
+    monkeypatch.setattr(dynamics.PolynomialSystem, "measure", blind)
+    assert sindy.recommended_params("van-der-pol", 0.05, "spectral") == first
