@@ -19,9 +19,10 @@ pysindy's other defaults), so that only the derivative changes from one entry to
 * ``pysindy``: pysindy's own differentiation, ``FiniteDifference`` (SINDy's default) and
   ``SmoothedFiniteDifference`` at their defaults, and derivative's methods through
   ``SINDyDerivative`` at the settings of derivative's README (:data:`DERIVATIVE_README`);
-* ``weak form``: the weak (integral) form of SINDy, ``WeakPDELibrary`` over time with its
-  defaults (its random subdomains drawn with the measurement's seed), which needs no
-  pointwise derivative: the anchor a differentiator must beat.
+* ``weak form``: the weak (integral) form of SINDy, ``WeakPDELibrary`` over time, which
+  needs no pointwise derivative: the anchor a differentiator must beat. At its defaults, and
+  with its number of test functions K chosen by the truth on the tuning seed
+  (:func:`weak_form_params`); its random subdomains drawn with the measurement's seed.
 
 Scores per seed (:func:`entry_rows`): the coefficient error
 :math:`\\|\\hat\\Xi - \\Xi\\|_F / \\|\\Xi\\|_F` over the library; the support's precision,
@@ -43,18 +44,14 @@ from __future__ import annotations
 
 import math
 import warnings
-from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
-import pandas as pd
 from scipy.integrate import solve_ivp
 
 from diffbench import methods
 from diffbench.bench.core import search_space, tuning
-from diffbench.bench.core.stats import confidence_interval
-from diffbench.bench.report import figures, tables
 from diffbench.bench.studies import recommend as advice
 from diffbench.signals.dynamics import PolynomialSystem, get_system
 
@@ -88,6 +85,13 @@ DERIVATIVE_README: dict[str, dict[str, Any]] = {
 SINDy through pysindy's ``SINDyDerivative``. Left out for their cost on these records (a
 state of Lorenz, 5001 samples, one call): ``trend_filtered`` (45 s), ``kalman`` (17 s) and
 ``kernel`` (dense in the record's length)."""
+
+WEAK_FORM_K = (50, 100, 200, 400, 800)
+"""The numbers of test functions (subdomains) the weak form's K is chosen among (pysindy's
+default: 100)."""
+
+WEAK_FORM_TUNED = "WeakPDELibrary (K tuned)"
+"""The name of the weak form's entry with K chosen by the truth."""
 
 PYSINDY_DEFAULTS = ("FiniteDifference", "SmoothedFiniteDifference")
 """pysindy's own differentiation classes, at their defaults."""
@@ -152,6 +156,7 @@ def discover(
                     function_library=function_library,
                     spatiotemporal_grid=measurement.t,
                     is_uniform=True,
+                    **entry["params"],
                 )
                 model = ps.SINDy(feature_library=library, optimizer=_optimizer(system))
                 model.fit(measurement.x, t=measurement.t)
@@ -297,6 +302,22 @@ def recommended_params(system_name: str, level: float, method: str) -> dict[str,
     return {"states": states, "scales": scales}
 
 
+def weak_form_params(system_name: str, level: float) -> dict[str, Any]:
+    """The weak form's number of test functions K (:data:`WEAK_FORM_K`) with the least
+    coefficient error on the measurement at :data:`~diffbench.bench.core.tuning.TUNING_SEED`
+    (never scored): the weak form's best, as the oracle gives the differentiators theirs.
+    Returns ``{"K": K}``."""
+    system = get_system(system_name)
+    measurement = system.measure(level, tuning.TUNING_SEED)
+    errors = {}
+    for count in WEAK_FORM_K:
+        entry = {"source": "weak form", "params": {"K": count}}
+        found, powers = discover(system, measurement, entry)
+        truth = system.coefficient_matrix(powers)
+        errors[count] = coefficient_scores(found, truth)["coefficient_error"]
+    return {"K": min(errors, key=errors.get)}
+
+
 def preset_params(method: str, dt: float) -> dict[str, Any]:
     """The parameters of ``method``'s default preset, its windows snapped to whole even
     numbers of steps ``dt`` (the presets are the paper signal's, at 1 ms)."""
@@ -333,222 +354,3 @@ def entry_rows(system_name: str, level: float, entry: dict[str, Any], seeds: int
         row["diverged_at_s"] = float(np.nanmin(times)) if row["diverged"] else math.nan
         rows.append(row)
     return rows
-
-
-# --- the report ------------------------------------------------------------------------------
-def entry_label(source: str, method: str) -> str:
-    """An entry as a table names it: ``method (source)``."""
-    return method if source in ("truth", "weak form", "pysindy") else f"{method} ({source})"
-
-
-def entries_frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
-    """One row per entry (system, level, source, method) from the per-seed rows: the mean
-    coefficient error and the half-width of its 95 % interval over the seeds (Student's t;
-    NaN for one seed), the mean precision and recall,
-    the share of seeds with the exact support, the median simulation error and the seeds
-    whose simulations diverged."""
-    frame = pd.DataFrame(rows)
-    frame["failed"] = frame["failure"].fillna("") != ""
-    keys = ["system", "level", "source", "method"]
-    out = []
-    for key, group in frame.groupby(keys, sort=False):
-        scored = group[~group["failed"]]
-        errors = scored["coefficient_error"].to_numpy(dtype=float)
-        half = confidence_interval(errors)[1] if errors.size else math.nan
-        out.append(
-            {
-                **dict(zip(keys, key, strict=True)),
-                "entry": entry_label(key[2], key[3]),
-                "params": group["params"].iloc[0],
-                "seeds": int(group["seed"].nunique()),
-                "failed": int(group["failed"].sum()),
-                "coefficient_error": float(errors.mean()) if errors.size else math.nan,
-                "ci_half": half,
-                "precision": float(scored["precision"].mean()) if len(scored) else math.nan,
-                "recall": float(scored["recall"].mean()) if len(scored) else math.nan,
-                "exact_support": float(scored["exact_support"].mean()) if len(scored) else 0.0,
-                "simulation_error": (
-                    float(scored["simulation_error"].median()) if len(scored) else math.nan
-                ),
-                "diverged_seeds": int((scored["diverged"] > 0).sum()) if len(scored) else 0,
-            }
-        )
-    return pd.DataFrame(out)
-
-
-def _contenders(part: pd.DataFrame) -> pd.DataFrame:
-    """The entries a winner is chosen among: every one but the truth, scored on every seed."""
-    return part[(part["source"] != "truth") & (part["failed"] == 0)].dropna(
-        subset=["coefficient_error"]
-    )
-
-
-def summary_table(entries: pd.DataFrame) -> pd.DataFrame:
-    """Per system and noise level: the entry with the least mean coefficient error, its
-    margin over the next (their ratio), the weak form's error and the winner's ratio to it,
-    and the best pointwise differentiator's ratio to the weak form (< 1: it beats it)."""
-    rows = []
-    for (system, level), part in entries.groupby(["system", "level"], sort=False):
-        ranked = _contenders(part).sort_values("coefficient_error")
-        weak = part[part["source"] == "weak form"]["coefficient_error"]
-        weak_error = float(weak.iloc[0]) if len(weak) else math.nan
-        pointwise = ranked[ranked["source"] != "weak form"]
-        best, second = (ranked.iloc[0], ranked.iloc[1]) if len(ranked) > 1 else (None, None)
-        rows.append(
-            {
-                "system": system,
-                "noise": f"{level:.1%}",
-                "winner": "—" if best is None else best["entry"],
-                "its error": math.nan if best is None else best["coefficient_error"],
-                "exact support": math.nan if best is None else best["exact_support"],
-                "next": "—" if second is None else second["entry"],
-                "margin": (
-                    math.nan
-                    if best is None
-                    else second["coefficient_error"] / best["coefficient_error"]
-                    if best["coefficient_error"] > 0
-                    else math.inf
-                ),
-                "weak form's error": weak_error,
-                "best pointwise": "—" if pointwise.empty else pointwise.iloc[0]["entry"],
-                "its error ": math.nan
-                if pointwise.empty
-                else pointwise.iloc[0]["coefficient_error"],
-                "best pointwise / weak form": (
-                    math.nan
-                    if pointwise.empty or not weak_error
-                    else pointwise.iloc[0]["coefficient_error"] / weak_error
-                ),
-            }
-        )
-    return pd.DataFrame(rows)
-
-
-def support_table(entries: pd.DataFrame) -> pd.DataFrame:
-    """Per system, each entry's share of seeds with the exact support at every noise level
-    (columns): where it stops recovering the right equations."""
-    table = entries.pivot_table(
-        index=["system", "entry"], columns="level", values="exact_support", sort=False
-    )
-    table.columns = [f"{level:.1%}" for level in table.columns]
-    return table.reset_index()
-
-
-def system_table(entries: pd.DataFrame, system: str) -> pd.DataFrame:
-    """One system: every entry's mean coefficient error (95 % interval) and share of exact
-    supports at each noise level, the best at the highest level first."""
-    part = entries[entries["system"] == system]
-    levels = sorted(part["level"].unique())
-    order = part[part["level"] == levels[-1]].sort_values("coefficient_error")["entry"].tolist()
-    rows = []
-    for entry in order:
-        mine = part[part["entry"] == entry].set_index("level")
-        row = {"entry": entry}
-        for level in levels:
-            if level not in mine.index:
-                row[f"{level:.1%}"] = "—"
-                continue
-            found = mine.loc[level]
-            row[f"{level:.1%}"] = (
-                f"{tables.plus_minus(found['coefficient_error'], found['ci_half'])}"
-                f" ({found['exact_support']:.0%} exact)"
-            )
-        rows.append(row)
-    return pd.DataFrame(rows)
-
-
-def write_figure(entries: pd.DataFrame, path: Path) -> Path:
-    """Coefficient error against noise level, one panel per system, one line per entry with
-    its 95 % interval over the seeds (log-log)."""
-    plt = figures.pyplot()
-    systems = list(dict.fromkeys(entries["system"]))
-    columns = min(3, len(systems))
-    rows = math.ceil(len(systems) / columns)
-    fig, axes = plt.subplots(rows, columns, figsize=(5 * columns, 3.8 * rows), squeeze=False)
-    names = list(dict.fromkeys(entries["entry"]))
-    styles = figures.method_styles(names)
-    for axis, system in zip(axes.flat, systems, strict=False):
-        part = entries[(entries["system"] == system) & (entries["source"] != "truth")]
-        for entry, group in part.groupby("entry", sort=False):
-            group = group.sort_values("level")
-            style = styles[entry]
-            axis.errorbar(
-                group["level"],
-                group["coefficient_error"].clip(lower=1e-16),
-                yerr=[
-                    np.minimum(group["ci_half"], 0.9 * group["coefficient_error"]),
-                    group["ci_half"],
-                ],
-                label=entry,
-                color=style.color,
-                linestyle=style.linestyle,
-                marker=style.marker,
-                capsize=2,
-            )
-        axis.set_xscale("log")
-        axis.set_yscale("log")
-        axis.set_title(system)
-        axis.set_xlabel("noise (fraction of each state's std)")
-        axis.set_ylabel("coefficient error ‖Ξ̂ − Ξ‖ / ‖Ξ‖")
-    for axis in list(axes.flat)[len(systems) :]:
-        axis.axis("off")
-    handles, labels = axes.flat[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize="small")
-    fig.subplots_adjust(bottom=0.12 + 0.03 * math.ceil(len(names) / 4))
-    return figures.save_figure(fig, path, tight=False)
-
-
-def _shown(frame: pd.DataFrame) -> pd.DataFrame:
-    shown = frame.copy()
-    for column in shown.columns:
-        if pd.api.types.is_float_dtype(shown[column]):
-            shown[column] = shown[column].map(
-                lambda v: "∞" if v == math.inf else tables.nan_to_dash(v, 3)
-            )
-    return shown
-
-
-def write_report(rows: list[dict[str, Any]], directory: Path, seeds: int) -> list[Path]:
-    """``summary.md``/``.csv`` (the winner per system and noise level), ``support.md``/``.csv``
-    (where each entry stops recovering the support), ``<system>.md``/``.csv`` per system,
-    ``entries.csv`` (every entry's scores) and ``coefficient_error.png``."""
-    directory.mkdir(parents=True, exist_ok=True)
-    entries = entries_frame(rows)
-    legend = (
-        f"Mean over {seeds} noise seeds (Gaussian, the level times each state's std over the "
-        "trajectory, `numpy.random.default_rng(seed)`). **coefficient error**: "
-        "‖Ξ̂ − Ξ‖_F / ‖Ξ‖_F over the system's polynomial library (STLSQ at the system's "
-        "threshold, pysindy's other defaults); **exact**: the share of seeds whose terms are "
-        "exactly the true ones. *oracle*: tuned by the truth for ẋ on the seed "
-        f"{tuning.TUNING_SEED} (never scored); *recommend*: the setting `diffbench recommend` "
-        "chooses for each state from that seed's measurement alone; *preset*: the method's "
-        "default preset; "
-        "pysindy's classes at their defaults, derivative's methods (SINDyDerivative.*) at its "
-        "README's settings; **weak form**: pysindy's WeakPDELibrary over time, no pointwise "
-        "derivative. Margin: the next entry's error over the winner's."
-    )
-    written = tables.write_report(
-        directory,
-        "summary",
-        summary_table(entries),
-        _shown(summary_table(entries)),
-        "SINDy discovery: the differentiator that finds the equations best, per system and "
-        "noise level",
-        legend,
-    )
-    support = support_table(entries)
-    written += tables.write_report(
-        directory,
-        "support",
-        support,
-        _shown(support),
-        "Exact support: the share of seeds each entry finds exactly the true terms",
-        legend,
-    )
-    for system in dict.fromkeys(entries["system"]):
-        table = system_table(entries, system)
-        title = f"{system}: coefficient error (95 % interval) and exact supports"
-        written += tables.write_report(directory, system, table, table, title, legend)
-    written.append(tables.write_csv(directory / "entries.csv", entries))
-    written.append(write_figure(entries, directory / "coefficient_error.png"))
-    return written

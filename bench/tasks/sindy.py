@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 from diffbench import methods
 from diffbench.bench.studies import sindy as study
+from diffbench.bench.studies import sindy_report
 from diffbench.bench.tasks.items import Item, ItemStudy, _json
 from diffbench.signals.dynamics import SYSTEMS, get_system
 
@@ -77,6 +78,7 @@ class SindyStudy(ItemStudy):
             for kind, params in study.DERIVATIVE_README.items()
         ]
         entries.append({"source": "weak form", "method": "WeakPDELibrary", "params": {}})
+        entries.append({"source": "weak form", "method": study.WEAK_FORM_TUNED, "params": None})
         return entries
 
     def items(self, method_names, seeds):
@@ -98,6 +100,8 @@ class SindyStudy(ItemStudy):
                 setting["params"], tuned_loss = found["params"], found["loss"]
             elif source == "recommend":
                 setting["params"] = study.recommended_params(item.name, level, method)
+            elif source == "weak form" and setting["params"] is None:
+                setting["params"] = study.weak_form_params(item.name, level)
             elif source == "preset":
                 setting["params"] = study.preset_params(method, get_system(item.name).dt_s)
         except ValueError as error:  # no setting covers the record: one row says why
@@ -126,7 +130,7 @@ class SindyStudy(ItemStudy):
     def write(self, rows, directory):
         flat = [row for found in rows.values() for row in found]
         seeds = max(item.setting["seeds"] for item in rows)
-        return study.write_report(flat, directory, seeds)
+        return sindy_report.write_report(flat, directory, seeds)
 
 
 def builtin_tasks() -> list:
