@@ -3,7 +3,8 @@
 Each system of :mod:`diffbench.signals.dynamics` is measured at a noise level (a fraction of
 each state's standard deviation) and given to pysindy's SINDy with the system's polynomial
 library and sequentially thresholded least squares (STLSQ at the system's stated threshold,
-pysindy's other defaults), so that only the derivative changes from one entry to the next:
+without ridge: :func:`_optimizer`), so that only the derivative changes from one entry to
+the next:
 
 * ``truth``: what a perfect differentiator gives, the exact ẋ and the clean states the
   library is evaluated on (the reference: SINDy recovers the equations to rounding);
@@ -124,7 +125,13 @@ def _library(system: PolynomialSystem):
 
 
 def _optimizer(system: PolynomialSystem):
-    return _pysindy().STLSQ(threshold=system.threshold)
+    """Sequentially thresholded least squares as Brunton et al. (2016) wrote it: plain least
+    squares (no ridge, ``alpha=0``) at the system's threshold. pysindy's default ridge
+    (``alpha=0.05``) is not invariant to the library's scale, which differs between the
+    pointwise and the weak form: with it, the weak form missed Rössler's terms at 0.1 %
+    noise (coefficient error 0.83-0.89 over three seeds, against 0.0002-0.0004 without), and
+    the spectral preset Lotka-Volterra's (0.59 against 3e-5)."""
+    return _pysindy().STLSQ(threshold=system.threshold, alpha=0.0)
 
 
 def _pysindy_differentiation(entry: dict[str, Any]):

@@ -223,7 +223,7 @@ def write_report(rows: list[dict[str, Any]], directory: Path, seeds: int) -> lis
         f"Mean over {seeds} noise seeds (Gaussian, the level times each state's std over the "
         "trajectory, `numpy.random.default_rng(seed)`). **coefficient error**: "
         "‖Ξ̂ − Ξ‖_F / ‖Ξ‖_F over the system's polynomial library (STLSQ at the system's "
-        "threshold, pysindy's other defaults); **exact**: the share of seeds whose terms are "
+        "threshold, no ridge); **exact**: the share of seeds whose terms are "
         "exactly the true ones. *oracle*: tuned by the truth for ẋ on the seed "
         f"{tuning.TUNING_SEED} (never scored); *recommend*: the setting `diffbench recommend` "
         "chooses for each state from that seed's measurement alone; *preset*: the method's "

@@ -147,7 +147,7 @@ def test_a_native_entry_is_what_the_pysindy_adapter_gives():
     found, _ = sindy.discover(system, measurement, entry)
     model = ps.SINDy(
         feature_library=ps.PolynomialLibrary(degree=system.degree),
-        optimizer=ps.STLSQ(threshold=system.threshold),
+        optimizer=ps.STLSQ(threshold=system.threshold, alpha=0.0),
         differentiation_method=Differentiation("savitzky_golay", params),
     )
     model.fit(measurement.x, t=system.dt_s)
