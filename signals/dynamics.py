@@ -187,17 +187,26 @@ class PolynomialSystem:
         x = solution.y.T
         return Trajectory(read_only(t), read_only(x), read_only(self.rhs(x)))
 
-    def measure(self, noise_level: float, seed: int) -> Measurement:
-        """The measured trajectory with Gaussian noise of ``noise_level`` times each state's
-        standard deviation over it, drawn with ``numpy.random.default_rng(seed)``."""
+    def measure(self, noise_level: float, seed: int, every: int = 1) -> Measurement:
+        """The measured trajectory, every ``every``-th sample of it (a step ``every`` times
+        the system's), with Gaussian noise of ``noise_level`` times each state's standard
+        deviation over those samples, drawn with ``numpy.random.default_rng(seed)``."""
         check_real("noise_level", noise_level, ge=0)
+        if isinstance(every, bool) or not isinstance(every, int) or every < 1:
+            raise ValueError(f"`every` must be a whole number >= 1, got {every!r}")
         truth = self.trajectory()
+        if every > 1:
+            truth = Trajectory(
+                read_only(truth.t[::every]),
+                read_only(truth.x[::every]),
+                read_only(truth.x_dot[::every]),
+            )
         spread = truth.x.std(axis=0)
         rng = np.random.default_rng(seed)
         noise = noise_level * spread * rng.standard_normal(truth.x.shape)
         return Measurement(
             truth.t,
-            self.dt_s,
+            self.dt_s * every,
             read_only(truth.x + noise),
             truth,
             read_only(noise_level * spread),

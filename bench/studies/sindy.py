@@ -62,6 +62,10 @@ ORDER = 1
 NOISE_LEVELS = (0.001, 0.01, 0.05, 0.1)
 """Noise levels, fractions of each state's standard deviation over the measured trajectory."""
 
+STEPS = (1, 5)
+"""The sampling steps, in multiples of each system's own (every sample of the trajectory, or
+every fifth)."""
+
 INTERIOR_MARGIN = 0.05
 """The share of the record left out at each end of the oracle's tuning loss."""
 
@@ -282,25 +286,25 @@ def _channels(measurement, margin: float = INTERIOR_MARGIN) -> list[SimpleNamesp
     ]
 
 
-def oracle_params(system_name: str, level: float, method: str) -> dict[str, Any]:
+def oracle_params(system_name: str, level: float, method: str, every: int = 1) -> dict:
     """``method`` tuned by the truth for ẋ on the measurement at
     :data:`~diffbench.bench.core.tuning.TUNING_SEED` (never scored): the mean over the states
     of the ẋ RMSE on the record's middle (:func:`_channels`). Returns
     ``{"params", "loss"}``."""
     system = get_system(system_name)
-    measurement = system.measure(level, tuning.TUNING_SEED)
+    measurement = system.measure(level, tuning.TUNING_SEED, every)
     result = tuning.tune(method, _channels(measurement), ORDER, "oracle")
     if not math.isfinite(result.loss):
         raise ValueError(f"{method} has no setting that estimates {system_name}'s middle")
     return {"params": result.params, "loss": result.loss}
 
 
-def recommended_params(system_name: str, level: float, method: str) -> dict[str, Any]:
+def recommended_params(system_name: str, level: float, method: str, every: int = 1) -> dict:
     """``method``'s setting for each state as ``diffbench recommend`` chooses it from the
     measurement at :data:`~diffbench.bench.core.tuning.TUNING_SEED` alone (no truth; ẋ over
     the record less 5 % at each end): ``{"states": [params, ...], "scales": [...]}``, each
     setting for its state divided by its scale (:func:`advice.record_scale`)."""
-    measurement = get_system(system_name).measure(level, tuning.TUNING_SEED)
+    measurement = get_system(system_name).measure(level, tuning.TUNING_SEED, every)
     states, scales = [], []
     for i in range(measurement.x.shape[1]):
         found = advice.recommend(measurement.x[:, i], measurement.dt_s, [method], (ORDER,))
@@ -309,13 +313,13 @@ def recommended_params(system_name: str, level: float, method: str) -> dict[str,
     return {"states": states, "scales": scales}
 
 
-def weak_form_params(system_name: str, level: float) -> dict[str, Any]:
+def weak_form_params(system_name: str, level: float, every: int = 1) -> dict[str, Any]:
     """The weak form's number of test functions K (:data:`WEAK_FORM_K`) with the least
     coefficient error on the measurement at :data:`~diffbench.bench.core.tuning.TUNING_SEED`
     (never scored): the weak form's best, as the oracle gives the differentiators theirs.
     Returns ``{"K": K}``."""
     system = get_system(system_name)
-    measurement = system.measure(level, tuning.TUNING_SEED)
+    measurement = system.measure(level, tuning.TUNING_SEED, every)
     errors = {}
     for count in WEAK_FORM_K:
         entry = {"source": "weak form", "params": {"K": count}}
@@ -337,16 +341,19 @@ def preset_params(method: str, dt: float) -> dict[str, Any]:
     return search_space.snap(methods.preset(method, key).params(), dt, methods.params_of(cls))
 
 
-def entry_rows(system_name: str, level: float, entry: dict[str, Any], seeds: int) -> list[dict]:
+def entry_rows(
+    system_name: str, level: float, entry: dict[str, Any], seeds: int, every: int = 1
+) -> list[dict]:
     """Per seed 0..seeds-1: ``entry`` (``source``, ``method``, ``params``) on ``system_name``
-    measured at ``level``, scored (:func:`coefficient_scores`; the held-out simulations'
-    mean ``simulation_error`` and the earliest ``diverged_at_s``, with ``diverged`` the count
-    of those that diverged); ``failure`` says why an entry gave no model (empty otherwise)."""
+    measured at ``level``, every ``every``-th sample, scored (:func:`coefficient_scores`;
+    the held-out simulations' mean ``simulation_error`` and the earliest ``diverged_at_s``,
+    with ``diverged`` the count of those that diverged); ``failure`` says why an entry gave
+    no model (empty otherwise)."""
     system = get_system(system_name)
     spread = system.trajectory().x.std(axis=0)
     rows = []
     for seed in range(seeds):
-        measurement = system.measure(level, seed)
+        measurement = system.measure(level, seed, every)
         row: dict[str, Any] = {"seed": seed, "failure": ""}
         try:
             found, powers = discover(system, measurement, entry)

@@ -22,14 +22,14 @@ def entry_label(source: str, method: str) -> str:
 
 
 def entries_frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
-    """One row per entry (system, level, source, method) from the per-seed rows: the mean
+    """One row per entry (system, step, level, source, method) from the per-seed rows: the mean
     coefficient error and the half-width of its 95 % interval over the seeds (Student's t;
     NaN for one seed), the mean precision and recall,
     the share of seeds with the exact support, the median simulation error and the seeds
     whose simulations diverged."""
     frame = pd.DataFrame(rows)
     frame["failed"] = frame["failure"].fillna("") != ""
-    keys = ["system", "level", "source", "method"]
+    keys = ["system", "step_s", "level", "source", "method"]
     out = []
     for key, group in frame.groupby(keys, sort=False):
         scored = group[~group["failed"]]
@@ -38,7 +38,7 @@ def entries_frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
         out.append(
             {
                 **dict(zip(keys, key, strict=True)),
-                "entry": entry_label(key[2], key[3]),
+                "entry": entry_label(key[3], key[4]),
                 "params": group["params"].iloc[0],
                 "seeds": int(group["seed"].nunique()),
                 "failed": int(group["failed"].sum()),
@@ -64,12 +64,14 @@ def _contenders(part: pd.DataFrame) -> pd.DataFrame:
 
 
 def summary_table(entries: pd.DataFrame) -> pd.DataFrame:
-    """Per system and noise level: the entry with the least mean coefficient error, its
+    """Per system, sampling step and noise level: the entry with the least mean coefficient
+    error, its
     margin over the next (their ratio), the weak form's error (the better of its entries)
     and the winner's ratio to it,
     and the best pointwise differentiator's ratio to the weak form (< 1: it beats it)."""
     rows = []
-    for (system, level), part in entries.groupby(["system", "level"], sort=False):
+    groups = entries.groupby(["system", "step_s", "level"], sort=False)
+    for (system, step_s, level), part in groups:
         ranked = _contenders(part).sort_values("coefficient_error")
         weak = part[part["source"] == "weak form"]["coefficient_error"]
         weak_error = float(weak.min()) if len(weak) else math.nan
@@ -78,6 +80,7 @@ def summary_table(entries: pd.DataFrame) -> pd.DataFrame:
         rows.append(
             {
                 "system": system,
+                "step": step_label(step_s),
                 "noise": f"{level:.1%}",
                 "winner": "—" if best is None else best["entry"],
                 "its error": math.nan if best is None else best["coefficient_error"],
@@ -106,7 +109,7 @@ def summary_table(entries: pd.DataFrame) -> pd.DataFrame:
 
 
 def headline_table(summary: pd.DataFrame) -> pd.DataFrame:
-    """One row from :func:`summary_table`: on how many records (system × noise level) the
+    """One row from :func:`summary_table`: on how many records (system × step × noise) the
     best pointwise differentiator's coefficient error is below the weak form's, the median
     ratio of the two, and the entry that wins most records (with its count)."""
     ratios = summary["best pointwise / weak form"].to_numpy(dtype=float)
@@ -115,7 +118,7 @@ def headline_table(summary: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(
         [
             {
-                "records (systems × noise levels)": len(summary),
+                "records (systems × steps × noise levels)": len(summary),
                 "best pointwise differentiator beats the weak form on": int(
                     np.sum(ratios[compared] < 1)
                 ),
@@ -129,31 +132,40 @@ def headline_table(summary: pd.DataFrame) -> pd.DataFrame:
 
 
 def support_table(entries: pd.DataFrame) -> pd.DataFrame:
-    """Per system, each entry's share of seeds with the exact support at every noise level
-    (columns): where it stops recovering the right equations."""
-    table = entries.pivot_table(
-        index=["system", "entry"], columns="level", values="exact_support", sort=False
+    """Per system and sampling step, each entry's share of seeds with the exact support at
+    every noise level (columns): where it stops recovering the right equations."""
+    table = entries.assign(step=entries["step_s"].map(step_label)).pivot_table(
+        index=["system", "step", "entry"], columns="level", values="exact_support", sort=False
     )
     table.columns = [f"{level:.1%}" for level in table.columns]
     return table.reset_index()
 
 
+def step_label(step_s: float) -> str:
+    """A sampling step as tables name it: ``2 ms``."""
+    return f"{1000 * step_s:.3g} ms"
+
+
 def system_table(entries: pd.DataFrame, system: str) -> pd.DataFrame:
     """One system: every entry's mean coefficient error (95 % interval) and share of exact
-    supports at each noise level, the best at the highest level first."""
+    supports at each sampling step and noise level (columns), the best at the system's own
+    step and the highest level first."""
     part = entries[entries["system"] == system]
-    levels = sorted(part["level"].unique())
-    order = part[part["level"] == levels[-1]].sort_values("coefficient_error")["entry"].tolist()
+    columns = sorted({(s, v) for s, v in zip(part["step_s"], part["level"], strict=True)})
+    first = columns[0][0]
+    hardest = part[(part["step_s"] == first) & (part["level"] == part["level"].max())]
+    order = hardest.sort_values("coefficient_error")["entry"].tolist()
     rows = []
     for entry in order:
-        mine = part[part["entry"] == entry].set_index("level")
+        mine = part[part["entry"] == entry].set_index(["step_s", "level"])
         row = {"entry": entry}
-        for level in levels:
-            if level not in mine.index:
-                row[f"{level:.1%}"] = "—"
+        for step_s, level in columns:
+            name = f"{level:.1%}, {step_label(step_s)}"
+            if (step_s, level) not in mine.index:
+                row[name] = "—"
                 continue
-            found = mine.loc[level]
-            row[f"{level:.1%}"] = (
+            found = mine.loc[(step_s, level)]
+            row[name] = (
                 f"{tables.plus_minus(found['coefficient_error'], found['ci_half'])}"
                 f" ({found['exact_support']:.0%} exact)"
             )
@@ -169,13 +181,17 @@ FIGURE_PYSINDY = ("FiniteDifference", "SmoothedFiniteDifference")
 
 
 def write_figure(entries: pd.DataFrame, path: Path) -> Path:
-    """Coefficient error against noise level, one panel per system, one line per entry of
-    :data:`FIGURE_SOURCES` and :data:`FIGURE_PYSINDY` with its 95 % interval over the seeds
-    (log-log; the lower bar cut at a tenth of the mean)."""
+    """Coefficient error against noise level at each system's own step, one panel per
+    system, one line per entry of :data:`FIGURE_SOURCES` and :data:`FIGURE_PYSINDY` with its
+    95 % interval over the seeds (log-log; the lower bar cut at a tenth of the mean)."""
     plt = figures.pyplot()
+    own_step = entries.groupby("system")["step_s"].transform("min")
     drawn = entries[
-        entries["source"].isin(FIGURE_SOURCES)
-        | ((entries["source"] == "pysindy") & entries["method"].isin(FIGURE_PYSINDY))
+        (entries["step_s"] == own_step)
+        & (
+            entries["source"].isin(FIGURE_SOURCES)
+            | ((entries["source"] == "pysindy") & entries["method"].isin(FIGURE_PYSINDY))
+        )
     ]
     systems = list(dict.fromkeys(drawn["system"]))
     columns = min(3, len(systems))
@@ -234,6 +250,7 @@ def write_report(rows: list[dict[str, Any]], directory: Path, seeds: int) -> lis
     entries = entries_frame(rows)
     legend = (
         f"Mean over {seeds} noise seeds (Gaussian, the level times each state's std over the "
+        "samples kept: every one, at the system's own step, or every fifth, at five times it; "
         "trajectory, `numpy.random.default_rng(seed)`). **coefficient error**: "
         "‖Ξ̂ − Ξ‖_F / ‖Ξ‖_F over the system's polynomial library (STLSQ at the system's "
         "threshold, no ridge); **exact**: the share of seeds whose terms are "

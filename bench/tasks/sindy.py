@@ -47,6 +47,7 @@ class SindyStudy(ItemStudy):
 
     systems: tuple[str, ...] = tuple(SYSTEMS)
     levels: tuple[float, ...] = study.NOISE_LEVELS
+    steps: tuple[int, ...] = study.STEPS
     name: str = "sindy"
     description: str = (
         "SINDy discovery on six systems with known equations at four noise levels: the "
@@ -84,26 +85,31 @@ class SindyStudy(ItemStudy):
     def items(self, method_names, seeds):
         items = []
         for system in self.systems:
-            for level in self.levels:
-                for entry in self.entries(method_names):
-                    setting = {**entry, "level": level, "seeds": len(seeds)}
-                    items.append(Item(system, setting))
+            for every in self.steps:
+                # the system's own step is named by leaving ``every`` out of the setting
+                step = {} if every == 1 else {"every": every}
+                for level in self.levels:
+                    for entry in self.entries(method_names):
+                        setting = {**entry, "level": level, "seeds": len(seeds), **step}
+                        items.append(Item(system, setting))
         return items
 
     def compute(self, item):
         setting = dict(item.setting)
         source, method, level = setting["source"], setting["method"], setting["level"]
+        every = setting.get("every", 1)
         tuned_loss = None
         try:
             if source == "oracle":
-                found = study.oracle_params(item.name, level, method)
+                found = study.oracle_params(item.name, level, method, every)
                 setting["params"], tuned_loss = found["params"], found["loss"]
             elif source == "recommend":
-                setting["params"] = study.recommended_params(item.name, level, method)
+                setting["params"] = study.recommended_params(item.name, level, method, every)
             elif source == "weak form" and setting["params"] is None:
-                setting["params"] = study.weak_form_params(item.name, level)
+                setting["params"] = study.weak_form_params(item.name, level, every)
             elif source == "preset":
-                setting["params"] = study.preset_params(method, get_system(item.name).dt_s)
+                dt = get_system(item.name).dt_s * every
+                setting["params"] = study.preset_params(method, dt)
         except ValueError as error:  # no setting covers the record: one row says why
             failed = {
                 "seed": 0,
@@ -113,13 +119,14 @@ class SindyStudy(ItemStudy):
             return [_json({**self._described(item.name, setting), **failed})]
         described = self._described(item.name, setting)
         described["tuned_loss"] = tuned_loss
-        rows = study.entry_rows(item.name, level, setting, setting["seeds"])
+        rows = study.entry_rows(item.name, level, setting, setting["seeds"], every)
         return [_json({**described, **row}) for row in rows]
 
     @staticmethod
     def _described(system: str, setting: dict) -> dict:
         return {
             "system": system,
+            "step_s": get_system(system).dt_s * setting.get("every", 1),
             "level": setting["level"],
             "source": setting["source"],
             "method": setting["method"],

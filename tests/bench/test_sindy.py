@@ -98,7 +98,9 @@ def test_the_perfect_differentiator_scores_perfectly_and_pysindys_default_runs()
 def test_the_study_tunes_scores_and_reports_every_entry(tmp_path):
     """One system at one level, one native method: its oracle-tuned and preset entries, the
     truth, pysindy's and derivative's, the weak form; each item's rows, then the report."""
-    study = SindyStudy(systems=("linear-oscillator",), levels=(0.05,), name="sindy-test")
+    study = SindyStudy(
+        systems=("linear-oscillator",), levels=(0.05,), steps=(1,), name="sindy-test"
+    )
     items = study.items(["spectral"], range(2))
     sources = [item.setting["source"] for item in items]
     assert sources.count("oracle") == sources.count("recommend") == sources.count("preset") == 1
@@ -165,8 +167,8 @@ def test_the_recommended_setting_is_chosen_from_the_noisy_data_alone(monkeypatch
     assert len(first["states"]) == len(first["scales"]) == 2
     measure = dynamics.PolynomialSystem.measure
 
-    def blind(self, level, seed):
-        measured = measure(self, level, seed)
+    def blind(self, level, seed, every=1):
+        measured = measure(self, level, seed, every)
         nothing = np.full_like(measured.truth.x, np.nan)
         truth = dataclasses.replace(measured.truth, x=nothing, x_dot=nothing)
         return dataclasses.replace(measured, truth=truth)
@@ -191,3 +193,24 @@ def test_the_weak_forms_tuned_k_is_at_least_as_good_as_its_default_on_the_tuning
         return sindy.coefficient_scores(found, system.coefficient_matrix(powers))
 
     assert error(chosen)["coefficient_error"] <= error({})["coefficient_error"]
+
+
+def test_the_coarser_step_keeps_every_fifth_sample_and_the_own_steps_items_their_keys():
+    """A measurement every fifth sample: five times the step, the trajectory's samples and
+    exact derivatives there, noise of the level times the spread of those samples. The items
+    at a system's own step name no step, so the store keys they had before the step was a
+    dimension still find them."""
+    system = get_system("duffing")
+    fine, coarse = system.measure(0.05, seed=3), system.measure(0.05, seed=3, every=5)
+    assert coarse.dt_s == 5 * fine.dt_s
+    np.testing.assert_array_equal(coarse.truth.x, fine.truth.x[::5])
+    np.testing.assert_array_equal(coarse.truth.x_dot, fine.truth.x_dot[::5])
+    np.testing.assert_array_equal(coarse.noise_std, 0.05 * fine.truth.x[::5].std(axis=0))
+    with pytest.raises(ValueError, match="`every` must be a whole number >= 1"):
+        system.measure(0.05, seed=3, every=0)
+    items = SindyStudy(systems=("duffing",), levels=(0.05,)).items(["spectral"], range(2))
+    own = [item for item in items if "every" not in item.setting]
+    fifth = [item for item in items if item.setting.get("every") == 5]
+    assert len(own) == len(fifth) == len(items) / 2
+    rows = SindyStudy(systems=("duffing",)).compute(fifth[0])
+    assert rows[0]["step_s"] == 5 * system.dt_s
