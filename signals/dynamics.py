@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from diffbench.signals._checks import check_real, read_only, unknown_choice_hint
+from diffbench.signals._checks import check_real, check_seed, read_only, unknown_choice_hint
 
 TOLERANCE = 1e-12
 """Relative and absolute tolerance of the integration (DOP853)."""
@@ -130,6 +130,7 @@ class PolynomialSystem:
     reference: str = ""
     _monomials: np.ndarray = field(init=False, repr=False, compare=False)
     _matrix: np.ndarray = field(init=False, repr=False, compare=False)
+    _trajectories: dict = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         size = len(self.states)
@@ -146,6 +147,7 @@ class PolynomialSystem:
         exponents.setflags(write=False)
         object.__setattr__(self, "_monomials", exponents)
         object.__setattr__(self, "_matrix", read_only(matrix))
+        object.__setattr__(self, "_trajectories", {})
 
     @property
     def dimension(self) -> int:
@@ -162,7 +164,9 @@ class PolynomialSystem:
         self, initial: tuple[float, ...] | None = None, duration_s: float | None = None
     ) -> Trajectory:
         """The trajectory from ``initial`` (default: the measured one's) over ``duration_s``
-        (default: the measured length) at the system's step, and its exact derivatives.
+        (default: the measured length) at the system's step, and its exact derivatives;
+        integrated once per start and length (its arrays are read-only, so every caller
+        shares them: a study measures one trajectory many times over).
 
         Raises
         ------
@@ -172,6 +176,9 @@ class PolynomialSystem:
         initial = self.initial if initial is None else initial
         duration_s = self.duration_s if duration_s is None else duration_s
         check_real("duration_s", duration_s, gt=0)
+        key = (tuple(float(v) for v in initial), float(duration_s))
+        if key in self._trajectories:
+            return self._trajectories[key]
         t = self.dt_s * np.arange(round(duration_s / self.dt_s) + 1)
         solution = solve_ivp(
             lambda _t, state: self.rhs(state),
@@ -185,7 +192,9 @@ class PolynomialSystem:
         if not solution.success:
             raise ValueError(f"{self.name} from {initial}: {solution.message}")
         x = solution.y.T
-        return Trajectory(read_only(t), read_only(x), read_only(self.rhs(x)))
+        found = Trajectory(read_only(t), read_only(x), read_only(self.rhs(x)))
+        self._trajectories[key] = found
+        return found
 
     def measure(self, noise_level: float, seed: int, every: int = 1) -> Measurement:
         """The measured trajectory, every ``every``-th sample of it (a step ``every`` times
@@ -202,7 +211,7 @@ class PolynomialSystem:
                 read_only(truth.x_dot[::every]),
             )
         spread = truth.x.std(axis=0)
-        rng = np.random.default_rng(seed)
+        rng = np.random.default_rng(check_seed(seed))
         noise = noise_level * spread * rng.standard_normal(truth.x.shape)
         return Measurement(
             truth.t,

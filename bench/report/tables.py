@@ -295,6 +295,18 @@ def nan_to_dash(value: float, digits: int = 4) -> str:
     return "—" if value is None or not math.isfinite(value) else f"{value:.{digits}g}"
 
 
+def numbers_shown(frame: pd.DataFrame, digits: int = 4) -> pd.DataFrame:
+    """``frame`` for people: its float columns to ``digits`` significant digits, +inf as ∞,
+    NaN (and -inf) as a dash."""
+    shown = frame.copy()
+    for column in shown.columns:
+        if pd.api.types.is_float_dtype(shown[column]):
+            shown[column] = shown[column].map(
+                lambda v: "∞" if v == math.inf else nan_to_dash(v, digits)
+            )
+    return shown
+
+
 def seeds_phrase(rows: pd.DataFrame) -> str:
     """How many noise seeds the entries of ``rows`` were scored on, for a report's text
     ("20 noise seeds", or "5–20 noise seeds" when entries differ)."""

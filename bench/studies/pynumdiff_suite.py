@@ -261,17 +261,6 @@ def summary_table(entries: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _shown(frame: pd.DataFrame) -> pd.DataFrame:
-    """``frame`` for people: numbers to 4 significant digits, NaN as a dash."""
-    shown = frame.copy()
-    for column in shown.columns:
-        if pd.api.types.is_float_dtype(shown[column]):
-            shown[column] = shown[column].map(
-                lambda v: "∞" if v == math.inf else tables.nan_to_dash(v)
-            )
-    return shown
-
-
 def write_report(rows: list[dict[str, Any]], directory: Path, seeds: int) -> list[Path]:
     """``summary.md``/``.csv``, ``entries.csv`` and ``<record>.md``/``.csv`` per record."""
     directory.mkdir(parents=True, exist_ok=True)
@@ -294,7 +283,7 @@ def write_report(rows: list[dict[str, Any]], directory: Path, seeds: int) -> lis
         directory,
         "summary",
         summary,
-        _shown(summary),
+        tables.numbers_shown(summary),
         "PyNumDiff's test records: diffbench's best at full coverage against PyNumDiff's",
         legend,
     )
@@ -302,5 +291,7 @@ def write_report(rows: list[dict[str, Any]], directory: Path, seeds: int) -> lis
     for record in dict.fromkeys(entries["record"]):
         table = record_table(entries, record)
         title = f"{record}: {records.get(record).description}"
-        written += tables.write_report(directory, record, table, _shown(table), title, legend)
+        written += tables.write_report(
+            directory, record, table, tables.numbers_shown(table), title, legend
+        )
     return written

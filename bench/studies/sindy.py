@@ -16,7 +16,7 @@ the next:
   them NaN for pysindy to leave out);
 * ``recommend``: the same at the setting ``diffbench recommend`` chooses for each state from
   the measurement of that tuning seed alone (no truth; :func:`recommended_params`);
-* ``preset``: the same at the method's default preset (its windows snapped to the step);
+* ``preset``: the same at the method's :data:`PRESET` (its windows snapped to the step);
 * ``pysindy``: pysindy's own differentiation, ``FiniteDifference`` (SINDy's default) and
   ``SmoothedFiniteDifference`` at their defaults, and derivative's methods through
   ``SINDyDerivative`` at the settings of derivative's README (:data:`DERIVATIVE_README`);
@@ -90,6 +90,10 @@ DERIVATIVE_README: dict[str, dict[str, Any]] = {
 SINDy through pysindy's ``SINDyDerivative``. Left out for their cost on these records (a
 state of Lorenz, 5001 samples, one call): ``trend_filtered`` (45 s), ``kalman`` (17 s) and
 ``kernel`` (dense in the record's length)."""
+
+PRESET = "paper-signal"
+"""The preset of the ``preset`` entries: the paper signal's (at 1 ms), which every offline
+method declares."""
 
 WEAK_FORM_K = (50, 100, 200, 400, 800)
 """The numbers of test functions (subdomains) the weak form's K is chosen among (pysindy's
@@ -330,15 +334,10 @@ def weak_form_params(system_name: str, level: float, every: int = 1) -> dict[str
 
 
 def preset_params(method: str, dt: float) -> dict[str, Any]:
-    """The parameters of ``method``'s default preset, its windows snapped to whole even
-    numbers of steps ``dt`` (the presets are the paper signal's, at 1 ms)."""
-    cls = methods.method_class(method)
-    if not cls.presets:
-        raise ValueError(f"{method} has no preset")
-    key = (
-        methods.DEFAULT_PRESET if methods.DEFAULT_PRESET in cls.presets else next(iter(cls.presets))
-    )
-    return search_space.snap(methods.preset(method, key).params(), dt, methods.params_of(cls))
+    """The parameters of ``method``'s :data:`PRESET`, its windows snapped to whole even
+    numbers of steps ``dt``; a ``ValueError`` naming the preset if the method has none."""
+    params = methods.preset(method, PRESET).params()
+    return search_space.snap(params, dt, methods.params_of(methods.method_class(method)))
 
 
 def entry_rows(

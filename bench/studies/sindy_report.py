@@ -14,6 +14,7 @@ import pandas as pd
 from diffbench.bench.core import tuning
 from diffbench.bench.core.stats import confidence_interval
 from diffbench.bench.report import figures, tables
+from diffbench.bench.studies import sindy as study
 
 
 def entry_label(source: str, method: str) -> str:
@@ -231,33 +232,24 @@ def write_figure(entries: pd.DataFrame, path: Path) -> Path:
     return figures.save_figure(fig, path, tight=False)
 
 
-def _shown(frame: pd.DataFrame) -> pd.DataFrame:
-    shown = frame.copy()
-    for column in shown.columns:
-        if pd.api.types.is_float_dtype(shown[column]):
-            shown[column] = shown[column].map(
-                lambda v: "∞" if v == math.inf else tables.nan_to_dash(v, 3)
-            )
-    return shown
-
-
 def write_report(rows: list[dict[str, Any]], directory: Path, seeds: int) -> list[Path]:
     """``headline.md``/``.csv`` (:func:`headline_table`), ``summary.md``/``.csv`` (the winner
-    per system and noise level), ``support.md``/``.csv``
+    per system, step and noise level), ``support.md``/``.csv``
     (where each entry stops recovering the support), ``<system>.md``/``.csv`` per system,
     ``entries.csv`` (every entry's scores) and ``coefficient_error.png``."""
     directory.mkdir(parents=True, exist_ok=True)
     entries = entries_frame(rows)
     legend = (
         f"Mean over {seeds} noise seeds (Gaussian, the level times each state's std over the "
-        "samples kept: every one, at the system's own step, or every fifth, at five times it; "
-        "trajectory, `numpy.random.default_rng(seed)`). **coefficient error**: "
+        "samples kept, `numpy.random.default_rng(seed)`); **step**: every sample of the "
+        "trajectory, at the system's own step, or every fifth, at five times it. "
+        "**coefficient error**: "
         "‖Ξ̂ − Ξ‖_F / ‖Ξ‖_F over the system's polynomial library (STLSQ at the system's "
         "threshold, no ridge); **exact**: the share of seeds whose terms are "
         "exactly the true ones. *oracle*: tuned by the truth for ẋ on the seed "
         f"{tuning.TUNING_SEED} (never scored); *recommend*: the setting `diffbench recommend` "
         "chooses for each state from that seed's measurement alone; *preset*: the method's "
-        "default preset; "
+        f"{study.PRESET} preset; "
         "pysindy's classes at their defaults, derivative's methods (SINDyDerivative.*) at its "
         "README's settings; **weak form**: pysindy's WeakPDELibrary over time (no pointwise "
         "derivative), at its defaults and with its number of test functions K chosen by the "
@@ -278,9 +270,9 @@ def write_report(rows: list[dict[str, Any]], directory: Path, seeds: int) -> lis
         directory,
         "summary",
         summary,
-        _shown(summary),
-        "SINDy discovery: the differentiator that finds the equations best, per system and "
-        "noise level",
+        tables.numbers_shown(summary, 3),
+        "SINDy discovery: the differentiator that finds the equations best, per system, "
+        "sampling step and noise level",
         legend,
     )
     support = support_table(entries)
@@ -288,7 +280,7 @@ def write_report(rows: list[dict[str, Any]], directory: Path, seeds: int) -> lis
         directory,
         "support",
         support,
-        _shown(support),
+        tables.numbers_shown(support, 3),
         "Exact support: the share of seeds each entry finds exactly the true terms",
         legend,
     )

@@ -313,11 +313,7 @@ def tuning_table(cells: pd.DataFrame, tunings: pd.DataFrame) -> pd.DataFrame:
             record["preset"] = rmse.mean() if len(rmse) else float("nan")
             coverages = list(presets[presets["metric"] == "coverage"]["value"])
             for column, criterion, seeds, tuned_region in TUNING_VARIANTS:
-                hit = group[
-                    (group["criterion"] == criterion)
-                    & (group["tuning_seeds"] == seeds)
-                    & (group["region"] == tuned_region)
-                ]
+                hit = _variant(group, criterion, seeds, tuned_region)
                 key = (method, "tuned", criterion, order, seeds, tuned_region, order, region)
                 record[column] = (
                     means.get((*key, "rmse"), float("nan")) if len(hit) else float("nan")
@@ -364,18 +360,23 @@ def tuning_report(cells: pd.DataFrame, tunings: pd.DataFrame, directory: Path) -
     )
 
 
+def _variant(tunings: pd.DataFrame, criterion: str, seeds: int, region: str) -> pd.DataFrame:
+    """The tunings of one variant of :data:`TUNING_VARIANTS`."""
+    return tunings[
+        (tunings["criterion"] == criterion)
+        & (tunings["tuning_seeds"] == seeds)
+        & (tunings["region"] == region)
+    ]
+
+
 def screening_note(tunings: pd.DataFrame) -> str:
     """The sentence saying which columns of the tuning table were tuned with their choices
     screened (the tunings' ``screen``; empty when none was)."""
-    if not len(tunings) or "screen" not in tunings or tunings["screen"].isna().all():
+    if "screen" not in tunings:
         return ""
     columns = []
     for column, criterion, seeds, region in TUNING_VARIANTS:
-        hit = tunings[
-            (tunings["criterion"] == criterion)
-            & (tunings["tuning_seeds"] == seeds)
-            & (tunings["region"] == region)
-        ]["screen"].dropna()
+        hit = _variant(tunings, criterion, seeds, region)["screen"].dropna()
         columns += [f"**{column}** to the best {int(k)}" for k in sorted(hit.unique())]
     if not columns:
         return ""

@@ -28,9 +28,9 @@ DEFAULT_METHODS = (
     "smoothing_spline",
     "finite_difference",
 )
-"""The native methods compared by default, each oracle-tuned and at its preset: the fast
-ones (the Gaussian processes and total variation cost seconds a call on 5000 samples, and a
-tuning calls a method hundreds of times; ``--methods`` adds them)."""
+"""The native methods compared by default, each oracle-tuned, recommended from the data and
+at its preset: the fast ones (the Gaussian processes and total variation cost seconds a call
+on 5000 samples, and a tuning calls a method hundreds of times; ``--methods`` adds them)."""
 
 
 def _package(source: str, method: str) -> str:
@@ -50,8 +50,9 @@ class SindyStudy(ItemStudy):
     steps: tuple[int, ...] = study.STEPS
     name: str = "sindy"
     description: str = (
-        "SINDy discovery on six systems with known equations at four noise levels: the "
-        "coefficient error and support each differentiator leads to, against the weak form"
+        "SINDy discovery on six systems with known equations at two sampling steps and four "
+        "noise levels: the coefficient error and support each differentiator leads to, "
+        "against the weak form"
     )
     default_seeds = 5
 
@@ -83,13 +84,14 @@ class SindyStudy(ItemStudy):
         return entries
 
     def items(self, method_names, seeds):
+        entries = self.entries(method_names)
         items = []
         for system in self.systems:
             for every in self.steps:
                 # the system's own step is named by leaving ``every`` out of the setting
                 step = {} if every == 1 else {"every": every}
                 for level in self.levels:
-                    for entry in self.entries(method_names):
+                    for entry in entries:
                         setting = {**entry, "level": level, "seeds": len(seeds), **step}
                         items.append(Item(system, setting))
         return items
