@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 
 from diffbench.bench.core import tuning
+from diffbench.bench.core.records import canonical
 from diffbench.bench.core.stats import confidence_interval
 from diffbench.bench.report import figures, tables
 from diffbench.bench.studies import sindy as study
@@ -27,7 +28,8 @@ def entries_frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
     coefficient error and the half-width of its 95 % interval over the seeds (Student's t;
     NaN for one seed), the mean precision and recall,
     the share of seeds with the exact support, the median simulation error and the seeds
-    whose simulations diverged."""
+    whose simulations diverged; ``params`` as canonical JSON (sorted keys), so that rows just
+    computed and rows read back from the store give the same table."""
     frame = pd.DataFrame(rows)
     frame["failed"] = frame["failure"].fillna("") != ""
     keys = ["system", "step_s", "level", "source", "method"]
@@ -40,7 +42,7 @@ def entries_frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
             {
                 **dict(zip(keys, key, strict=True)),
                 "entry": entry_label(key[3], key[4]),
-                "params": group["params"].iloc[0],
+                "params": canonical(group["params"].iloc[0]),  # one spelling, stored or not
                 "seeds": int(group["seed"].nunique()),
                 "failed": int(group["failed"].sum()),
                 "coefficient_error": float(errors.mean()) if errors.size else math.nan,

@@ -214,3 +214,24 @@ def test_the_coarser_step_keeps_every_fifth_sample_and_the_own_steps_items_their
     assert len(own) == len(fifth) == len(items) / 2
     rows = SindyStudy(systems=("duffing",)).compute(fifth[0])
     assert rows[0]["step_s"] == 5 * system.dt_s
+
+
+def test_the_entries_table_spells_a_setting_one_way_whatever_its_key_order():
+    """Rows just computed carry a tuned setting in the method's order, rows read back from
+    the store in sorted order: the entries table is the same for both."""
+    from diffbench.bench.studies import sindy_report
+
+    row = {
+        "system": "duffing",
+        "step_s": 0.01,
+        "level": 0.05,
+        "source": "oracle",
+        "method": "butterworth",
+        "seed": 0,
+        "failure": "",
+        **dict.fromkeys(sindy.SCORES, 0.5),
+    }
+    computed = sindy_report.entries_frame([{**row, "params": {"order": 7, "cutoff_hz": 2.5}}])
+    stored = sindy_report.entries_frame([{**row, "params": {"cutoff_hz": 2.5, "order": 7}}])
+    pd.testing.assert_frame_equal(computed, stored)
+    assert computed.loc[0, "params"] == '{"cutoff_hz":2.5,"order":7}'
