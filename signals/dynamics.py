@@ -101,6 +101,9 @@ class PolynomialSystem:
         One per state: its equation, monomial exponents → coefficient (the nonzero ones).
     initial : tuple of float
         The initial condition of the measured trajectory.
+    starts : tuple of tuple of float
+        Further initial conditions, for a measurement of several trajectories
+        (:meth:`measure_runs`): ``initial`` and then these, in order.
     held_out : tuple of tuple of float
         Initial conditions the discovered model is simulated from and scored on (never
         measured).
@@ -121,6 +124,7 @@ class PolynomialSystem:
     states: tuple[str, ...]
     terms: tuple[Mapping[Monomial, float], ...]
     initial: tuple[float, ...]
+    starts: tuple[tuple[float, ...], ...]
     held_out: tuple[tuple[float, ...], ...]
     dt_s: float
     duration_s: float
@@ -134,8 +138,11 @@ class PolynomialSystem:
 
     def __post_init__(self) -> None:
         size = len(self.states)
-        if len(self.terms) != size or len(self.initial) != size:
+        initials = (self.initial, *self.starts, *self.held_out)
+        if len(self.terms) != size or any(len(start) != size for start in initials):
             raise ValueError(f"{self.name}: one equation and one initial value per state")
+        if len(set(initials)) != len(initials):
+            raise ValueError(f"{self.name}: the measured and held-out starts must differ")
         monomials = sorted({m for equation in self.terms for m in equation})
         if any(len(m) != size or sum(m) > self.degree for m in monomials):
             raise ValueError(f"{self.name}: a monomial has the wrong size or degree")
@@ -196,30 +203,69 @@ class PolynomialSystem:
         self._trajectories[key] = found
         return found
 
+    @property
+    def max_starts(self) -> int:
+        """How many trajectories a measurement can hold: ``initial`` and the ``starts``."""
+        return 1 + len(self.starts)
+
     def measure(self, noise_level: float, seed: int, every: int = 1) -> Measurement:
         """The measured trajectory, every ``every``-th sample of it (a step ``every`` times
         the system's), with Gaussian noise of ``noise_level`` times each state's standard
-        deviation over those samples, drawn with ``numpy.random.default_rng(seed)``."""
+        deviation over those samples, drawn with ``numpy.random.default_rng(seed)``: the
+        one-start :meth:`measure_runs`."""
+        return self.measure_runs(noise_level, seed, every)[0]
+
+    def measure_runs(
+        self, noise_level: float, seed: int, every: int = 1, starts: int = 1
+    ) -> tuple[Measurement, ...]:
+        """A measurement of ``starts`` trajectories, from ``initial`` and the first
+        ``starts - 1`` of :attr:`starts`, each over ``duration_s / starts`` (the samples of
+        one trajectory shared among them), every ``every``-th sample of each kept.
+
+        Each state's noise has ``noise_level`` times its standard deviation over every
+        sample kept (all trajectories together), drawn with
+        ``numpy.random.default_rng(seed)`` for one trajectory after the other: one start is
+        :meth:`measure` exactly.
+
+        Raises
+        ------
+        ValueError
+            For a negative level, a bad seed, an ``every`` that is not a whole number
+            >= 1, or ``starts`` outside 1..:attr:`max_starts`.
+        """
         check_real("noise_level", noise_level, ge=0)
         if isinstance(every, bool) or not isinstance(every, int) or every < 1:
             raise ValueError(f"`every` must be a whole number >= 1, got {every!r}")
-        truth = self.trajectory()
-        if every > 1:
-            truth = Trajectory(
-                read_only(truth.t[::every]),
-                read_only(truth.x[::every]),
-                read_only(truth.x_dot[::every]),
+        if isinstance(starts, bool) or not isinstance(starts, int):
+            raise ValueError(f"`starts` must be a whole number, got {starts!r}")
+        if not 1 <= starts <= self.max_starts:
+            raise ValueError(
+                f"`starts` must be in 1..{self.max_starts} ({self.name} declares "
+                f"{self.max_starts} initial conditions), got {starts}"
             )
-        spread = truth.x.std(axis=0)
         rng = np.random.default_rng(check_seed(seed))
-        noise = noise_level * spread * rng.standard_normal(truth.x.shape)
-        return Measurement(
-            truth.t,
-            self.dt_s * every,
-            read_only(truth.x + noise),
-            truth,
-            read_only(noise_level * spread),
-            seed,
+        duration_s = self.duration_s / starts
+        runs = []
+        for initial in (self.initial, *self.starts)[:starts]:
+            truth = self.trajectory(initial, duration_s)
+            if every > 1:
+                truth = Trajectory(
+                    read_only(truth.t[::every]),
+                    read_only(truth.x[::every]),
+                    read_only(truth.x_dot[::every]),
+                )
+            runs.append(truth)
+        spread = np.concatenate([truth.x for truth in runs]).std(axis=0)
+        return tuple(
+            Measurement(
+                truth.t,
+                self.dt_s * every,
+                read_only(truth.x + noise_level * spread * rng.standard_normal(truth.x.shape)),
+                truth,
+                read_only(noise_level * spread),
+                seed,
+            )
+            for truth in runs
         )
 
     def coefficient_matrix(self, powers: np.ndarray) -> np.ndarray:
@@ -271,6 +317,7 @@ SYSTEMS: dict[str, PolynomialSystem] = {
                 states="xyz",
             ),
             initial=(-8.0, 8.0, 27.0),
+            starts=((-5.0, -10.0, 30.0), (10.0, 12.0, 25.0)),
             held_out=((5.0, -5.0, 20.0), (-2.0, 3.0, 15.0)),
             dt_s=0.002,
             duration_s=10.0,
@@ -288,6 +335,7 @@ SYSTEMS: dict[str, PolynomialSystem] = {
                 states="xyz",
             ),
             initial=(1.0, 1.0, 0.0),
+            starts=((0.0, -3.0, 0.1), (-4.0, 0.0, 0.2)),
             held_out=((-2.0, 2.0, 0.1), (3.0, -1.0, 0.5)),
             dt_s=0.01,
             duration_s=50.0,
@@ -300,6 +348,7 @@ SYSTEMS: dict[str, PolynomialSystem] = {
             ("x", "y"),
             _terms({"y": 1.0}, {"x": -1.0, "y": 2.0, "x^2*y": -2.0}, states="xy"),
             initial=(2.0, 0.0),
+            starts=((0.0, 3.0), (-3.0, -1.0)),
             held_out=((-1.0, 1.0), (0.5, -2.0)),
             dt_s=0.01,
             duration_s=20.0,
@@ -312,6 +361,7 @@ SYSTEMS: dict[str, PolynomialSystem] = {
             ("x", "y"),
             _terms({"y": 1.0}, {"x": -1.0, "y": -0.1, "x^3": -5.0}, states="xy"),
             initial=(1.0, 0.0),
+            starts=((0.0, 1.5), (-1.2, 0.0)),
             held_out=((-0.8, 0.5), (0.5, 1.0)),
             dt_s=0.01,
             duration_s=20.0,
@@ -324,7 +374,8 @@ SYSTEMS: dict[str, PolynomialSystem] = {
             ("x", "y"),
             _terms({"x": 1.0, "x*y": -0.5}, {"x*y": 0.5, "y": -1.0}, states="xy"),
             initial=(3.0, 1.0),
-            held_out=((2.0, 2.0), (1.0, 3.0)),
+            starts=((1.0, 1.0), (4.0, 2.5)),
+            held_out=((1.5, 2.5), (1.0, 3.0)),
             dt_s=0.01,
             duration_s=20.0,
             horizon_s=5.0,
@@ -336,6 +387,7 @@ SYSTEMS: dict[str, PolynomialSystem] = {
             ("x", "y"),
             _terms({"x": -0.1, "y": 2.0}, {"x": -2.0, "y": -0.1}, states="xy"),
             initial=(2.0, 0.0),
+            starts=((-2.0, 1.0), (1.0, 2.5)),
             held_out=((0.0, 2.0), (-1.0, -1.0)),
             dt_s=0.01,
             duration_s=25.0,

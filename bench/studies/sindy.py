@@ -1,10 +1,11 @@
 """SINDy discovery: which differentiator lets sparse regression find the right equations.
 
 Each system of :mod:`diffbench.signals.dynamics` is measured at a noise level (a fraction of
-each state's standard deviation) and given to pysindy's SINDy with the system's polynomial
-library and sequentially thresholded least squares (STLSQ at the system's stated threshold,
-without ridge: :func:`_optimizer`), so that only the derivative changes from one entry to
-the next:
+each state's standard deviation), from one initial condition or from several with the same
+number of samples shared among them (:data:`STARTS`), and given to pysindy's SINDy with the
+system's polynomial library and sequentially thresholded least squares (STLSQ at the
+system's stated threshold, without ridge: :func:`_optimizer`), so that only the derivative
+changes from one entry to the next:
 
 * ``truth``: what a perfect differentiator gives, the exact ẋ and the clean states the
   library is evaluated on (the reference: SINDy recovers the equations to rounding);
@@ -45,6 +46,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Sequence
 from types import SimpleNamespace
 from typing import Any
 
@@ -54,7 +56,7 @@ from scipy.integrate import solve_ivp
 from diffbench import methods
 from diffbench.bench.core import search_space, tuning
 from diffbench.bench.studies import recommend as advice
-from diffbench.signals.dynamics import PolynomialSystem, get_system
+from diffbench.signals.dynamics import Measurement, PolynomialSystem, get_system
 
 ORDER = 1
 """SINDy regresses ẋ."""
@@ -65,6 +67,11 @@ NOISE_LEVELS = (0.001, 0.01, 0.05, 0.1)
 STEPS = (1, 5)
 """The sampling steps, in multiples of each system's own (every sample of the trajectory, or
 every fifth)."""
+
+STARTS = (1, 3)
+"""The numbers of trajectories (initial conditions) a record holds, each over the system's
+duration divided by their number: one long trajectory, or three a third as long, which SINDy
+fits together (the usual remedy for a library a single trajectory leaves ill-conditioned)."""
 
 INTERIOR_MARGIN = 0.05
 """The share of the record left out at each end of the oracle's tuning loss."""
@@ -152,29 +159,31 @@ def _pysindy_differentiation(entry: dict[str, Any]):
 
 
 def discover(
-    system: PolynomialSystem, measurement, entry: dict[str, Any]
+    system: PolynomialSystem, runs: Sequence[Measurement], entry: dict[str, Any]
 ) -> tuple[np.ndarray, np.ndarray]:
     """The coefficients Ξ̂ (states by library features, the library's own order) SINDy finds
-    on ``measurement`` with ``entry``'s derivative (see the module docstring), and the
-    library's monomials: ``(coefficients, powers)``."""
+    on the measured trajectories ``runs`` (one fit over all of them, each differentiated on
+    its own) with ``entry``'s derivative (see the module docstring), and the library's
+    monomials: ``(coefficients, powers)``."""
     ps = _pysindy()
+    first = runs[0]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # pysindy's convergence and ill-conditioning remarks
         if entry["source"] == "weak form":
             # its subdomains are drawn from numpy's global generator when the library is
             # built: seeded by the measurement's seed (and given back), so a run reproduces
             state = np.random.get_state()  # noqa: NPY002 (pysindy's generator, not ours)
-            np.random.seed(measurement.seed)  # noqa: NPY002
+            np.random.seed(first.seed)  # noqa: NPY002
             try:
                 function_library = _library(system)
                 library = ps.WeakPDELibrary(
                     function_library=function_library,
-                    spatiotemporal_grid=measurement.t,
+                    spatiotemporal_grid=first.t,
                     is_uniform=True,
                     **entry["params"],
                 )
                 model = ps.SINDy(feature_library=library, optimizer=_optimizer(system))
-                model.fit(measurement.x, t=measurement.t)
+                model.fit([run.x for run in runs], t=[run.t for run in runs])
             finally:
                 np.random.set_state(state)  # noqa: NPY002
             powers = function_library.powers_
@@ -186,15 +195,19 @@ def discover(
                     optimizer=_optimizer(system),
                     differentiation_method=_pysindy_differentiation(entry),
                 )
-                model.fit(measurement.x, t=measurement.dt_s)
+                model.fit([run.x for run in runs], t=first.dt_s)
             else:
                 model = ps.SINDy(feature_library=library, optimizer=_optimizer(system))
-                if entry["source"] == "truth":  # a perfect differentiator's states and rates
-                    states, rates = measurement.truth.x, measurement.truth.x_dot
-                else:
-                    states, rates = _estimated(measurement, entry)
-                kept = np.isfinite(states).all(axis=1) & np.isfinite(rates).all(axis=1)
-                model.fit(states[kept], t=measurement.dt_s, x_dot=rates[kept])
+                states, rates = [], []
+                for run in runs:
+                    if entry["source"] == "truth":  # a perfect differentiator's
+                        found, found_rates = run.truth.x, run.truth.x_dot
+                    else:
+                        found, found_rates = _estimated(run, entry)
+                    kept = np.isfinite(found).all(axis=1) & np.isfinite(found_rates).all(axis=1)
+                    states.append(found[kept])
+                    rates.append(found_rates[kept])
+                model.fit(states, t=first.dt_s, x_dot=rates)
             powers = library.powers_
     return np.asarray(model.coefficients(), dtype=float), np.asarray(powers, dtype=int)
 
@@ -272,43 +285,55 @@ def simulate(
     return float(np.sqrt(np.mean(difference**2))), math.nan
 
 
-def _channels(measurement, margin: float = INTERIOR_MARGIN) -> list[SimpleNamespace]:
-    """Each state of ``measurement`` as a realisation the tuner reads (samples, step, the
-    middle of the record as the interior, the exact ẋ as the truth)."""
-    n = measurement.x.shape[0]
-    cut = math.ceil(margin * n)
-    interior = np.zeros(n, dtype=bool)
-    interior[cut : n - cut] = True
-    return [
-        SimpleNamespace(
-            x=measurement.x[:, i],
-            dt_s=measurement.dt_s,
-            interior=interior,
-            truth={ORDER: measurement.truth.x_dot[:, i]},
-        )
-        for i in range(measurement.x.shape[1])
-    ]
+def _channels(
+    runs: Sequence[Measurement], margin: float = INTERIOR_MARGIN
+) -> list[SimpleNamespace]:
+    """Each state of each measured trajectory as a realisation the tuner reads (samples, step,
+    the middle of the trajectory as the interior, the exact ẋ as the truth)."""
+    channels = []
+    for run in runs:
+        n = run.x.shape[0]
+        cut = math.ceil(margin * n)
+        interior = np.zeros(n, dtype=bool)
+        interior[cut : n - cut] = True
+        channels += [
+            SimpleNamespace(
+                x=run.x[:, i],
+                dt_s=run.dt_s,
+                interior=interior,
+                truth={ORDER: run.truth.x_dot[:, i]},
+            )
+            for i in range(run.x.shape[1])
+        ]
+    return channels
 
 
-def oracle_params(system_name: str, level: float, method: str, every: int = 1) -> dict:
+def oracle_params(
+    system_name: str, level: float, method: str, every: int = 1, starts: int = 1
+) -> dict:
     """``method`` tuned by the truth for ẋ on the measurement at
-    :data:`~diffbench.bench.core.tuning.TUNING_SEED` (never scored): the mean over the states
-    of the ẋ RMSE on the record's middle (:func:`_channels`). Returns
-    ``{"params", "loss"}``."""
+    :data:`~diffbench.bench.core.tuning.TUNING_SEED` (never scored): the mean over the
+    trajectories and states of the ẋ RMSE on each trajectory's middle (:func:`_channels`).
+    Returns ``{"params", "loss"}``."""
     system = get_system(system_name)
-    measurement = system.measure(level, tuning.TUNING_SEED, every)
-    result = tuning.tune(method, _channels(measurement), ORDER, "oracle")
+    runs = system.measure_runs(level, tuning.TUNING_SEED, every, starts)
+    result = tuning.tune(method, _channels(runs), ORDER, "oracle")
     if not math.isfinite(result.loss):
         raise ValueError(f"{method} has no setting that estimates {system_name}'s middle")
     return {"params": result.params, "loss": result.loss}
 
 
-def recommended_params(system_name: str, level: float, method: str, every: int = 1) -> dict:
+def recommended_params(
+    system_name: str, level: float, method: str, every: int = 1, starts: int = 1
+) -> dict:
     """``method``'s setting for each state as ``diffbench recommend`` chooses it from the
     measurement at :data:`~diffbench.bench.core.tuning.TUNING_SEED` alone (no truth; ẋ over
-    the record less 5 % at each end): ``{"states": [params, ...], "scales": [...]}``, each
-    setting for its state divided by its scale (:func:`advice.record_scale`)."""
-    measurement = get_system(system_name).measure(level, tuning.TUNING_SEED, every)
+    the record less 5 % at each end), of its first trajectory when it has several (a user
+    asks once, on one record): ``{"states": [params, ...], "scales": [...]}``, each setting
+    for its state divided by its scale (:func:`advice.record_scale`), and every trajectory's
+    state divided by the same."""
+    system = get_system(system_name)
+    measurement = system.measure_runs(level, tuning.TUNING_SEED, every, starts)[0]
     states, scales = [], []
     for i in range(measurement.x.shape[1]):
         found = advice.recommend(measurement.x[:, i], measurement.dt_s, [method], (ORDER,))
@@ -317,17 +342,19 @@ def recommended_params(system_name: str, level: float, method: str, every: int =
     return {"states": states, "scales": scales}
 
 
-def weak_form_params(system_name: str, level: float, every: int = 1) -> dict[str, Any]:
+def weak_form_params(
+    system_name: str, level: float, every: int = 1, starts: int = 1
+) -> dict[str, Any]:
     """The weak form's number of test functions K (:data:`WEAK_FORM_K`) with the least
     coefficient error on the measurement at :data:`~diffbench.bench.core.tuning.TUNING_SEED`
     (never scored): the weak form's best, as the oracle gives the differentiators theirs.
     Returns ``{"K": K}``."""
     system = get_system(system_name)
-    measurement = system.measure(level, tuning.TUNING_SEED, every)
+    runs = system.measure_runs(level, tuning.TUNING_SEED, every, starts)
     errors = {}
     for count in WEAK_FORM_K:
         entry = {"source": "weak form", "params": {"K": count}}
-        found, powers = discover(system, measurement, entry)
+        found, powers = discover(system, runs, entry)
         truth = system.coefficient_matrix(powers)
         errors[count] = coefficient_scores(found, truth)["coefficient_error"]
     return {"K": min(errors, key=errors.get)}
@@ -341,10 +368,17 @@ def preset_params(method: str, dt: float) -> dict[str, Any]:
 
 
 def entry_rows(
-    system_name: str, level: float, entry: dict[str, Any], seeds: int, every: int = 1
+    system_name: str,
+    level: float,
+    entry: dict[str, Any],
+    seeds: int,
+    every: int = 1,
+    starts: int = 1,
 ) -> list[dict]:
     """Per seed 0..seeds-1: ``entry`` (``source``, ``method``, ``params``) on ``system_name``
-    measured at ``level``, every ``every``-th sample, scored (:func:`coefficient_scores`;
+    measured at ``level`` from ``starts`` initial conditions
+    (:meth:`~diffbench.signals.dynamics.PolynomialSystem.measure_runs`), every
+    ``every``-th sample, scored (:func:`coefficient_scores`;
     the held-out simulations' mean ``simulation_error`` and the earliest ``diverged_at_s``,
     with ``diverged`` the count of those that diverged); ``failure`` says why an entry gave
     no model (empty otherwise)."""
@@ -352,10 +386,10 @@ def entry_rows(
     spread = system.trajectory().x.std(axis=0)
     rows = []
     for seed in range(seeds):
-        measurement = system.measure(level, seed, every)
+        runs = system.measure_runs(level, seed, every, starts)
         row: dict[str, Any] = {"seed": seed, "failure": ""}
         try:
-            found, powers = discover(system, measurement, entry)
+            found, powers = discover(system, runs, entry)
         except ValueError as error:  # a setting the record refuses, or no trusted sample
             rows.append({**row, **dict.fromkeys(SCORES, math.nan), "failure": str(error)})
             continue

@@ -24,7 +24,8 @@ def entry_label(source: str, method: str) -> str:
 
 
 def entries_frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
-    """One row per entry (system, step, level, source, method) from the per-seed rows: the mean
+    """One row per entry (system, step, starts, level, source, method) from the per-seed rows
+    (a row stored before records had several starts has one): the mean
     coefficient error and the half-width of its 95 % interval over the seeds (Student's t;
     NaN for one seed), the mean precision and recall,
     the share of seeds with the exact support, the median simulation error and the seeds
@@ -32,7 +33,9 @@ def entries_frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
     computed and rows read back from the store give the same table."""
     frame = pd.DataFrame(rows)
     frame["failed"] = frame["failure"].fillna("") != ""
-    keys = ["system", "step_s", "level", "source", "method"]
+    starts = frame["starts"] if "starts" in frame else pd.Series(1, index=frame.index)
+    frame["starts"] = starts.fillna(1).astype(int)
+    keys = ["system", "step_s", "starts", "level", "source", "method"]
     out = []
     for key, group in frame.groupby(keys, sort=False):
         scored = group[~group["failed"]]
@@ -41,7 +44,7 @@ def entries_frame(rows: list[dict[str, Any]]) -> pd.DataFrame:
         out.append(
             {
                 **dict(zip(keys, key, strict=True)),
-                "entry": entry_label(key[3], key[4]),
+                "entry": entry_label(key[4], key[5]),
                 "params": canonical(group["params"].iloc[0]),  # one spelling, stored or not
                 "seeds": int(group["seed"].nunique()),
                 "failed": int(group["failed"].sum()),
@@ -67,14 +70,15 @@ def _contenders(part: pd.DataFrame) -> pd.DataFrame:
 
 
 def summary_table(entries: pd.DataFrame) -> pd.DataFrame:
-    """Per system, sampling step and noise level: the entry with the least mean coefficient
+    """Per system, record (sampling step and starts) and noise level: the entry with the least
+    mean coefficient
     error, its
     margin over the next (their ratio), the weak form's error (the better of its entries)
     and the winner's ratio to it,
     and the best pointwise differentiator's ratio to the weak form (< 1: it beats it)."""
     rows = []
-    groups = entries.groupby(["system", "step_s", "level"], sort=False)
-    for (system, step_s, level), part in groups:
+    groups = entries.groupby(["system", "step_s", "starts", "level"], sort=False)
+    for (system, step_s, starts, level), part in groups:
         ranked = _contenders(part).sort_values("coefficient_error")
         weak = part[part["source"] == "weak form"]["coefficient_error"]
         weak_error = float(weak.min()) if len(weak) else math.nan
@@ -84,6 +88,7 @@ def summary_table(entries: pd.DataFrame) -> pd.DataFrame:
             {
                 "system": system,
                 "step": step_label(step_s),
+                "starts": starts,
                 "noise": f"{level:.1%}",
                 "winner": "—" if best is None else best["entry"],
                 "its error": math.nan if best is None else best["coefficient_error"],
@@ -112,33 +117,39 @@ def summary_table(entries: pd.DataFrame) -> pd.DataFrame:
 
 
 def headline_table(summary: pd.DataFrame) -> pd.DataFrame:
-    """One row from :func:`summary_table`: on how many records (system × step × noise) the
-    best pointwise differentiator's coefficient error is below the weak form's, the median
-    ratio of the two, and the entry that wins most records (with its count)."""
-    ratios = summary["best pointwise / weak form"].to_numpy(dtype=float)
-    compared = np.isfinite(ratios)
-    wins = summary["winner"].value_counts()
-    return pd.DataFrame(
-        [
+    """One row per number of starts from :func:`summary_table`: on how many records
+    (system × step × noise) the best pointwise differentiator's coefficient error is below
+    the weak form's, the median ratio of the two, and the entry that wins most records (with
+    its count)."""
+    rows = []
+    for starts, part in summary.groupby("starts"):
+        ratios = part["best pointwise / weak form"].to_numpy(dtype=float)
+        compared = np.isfinite(ratios)
+        wins = part["winner"].value_counts()
+        rows.append(
             {
-                "records (systems × steps × noise levels)": len(summary),
+                "trajectories": f"{starts} ({'one start' if starts == 1 else 'the same samples'})",
+                "records (systems × steps × noise levels)": len(part),
                 "best pointwise differentiator beats the weak form on": int(
                     np.sum(ratios[compared] < 1)
                 ),
                 "its error / the weak form's, median": (
                     f"{np.median(ratios[compared]):.2f}×" if compared.any() else "—"
                 ),
-                "wins most records": f"{wins.index[0]} ({wins.iloc[0]} of {len(summary)})",
+                "wins most records": f"{wins.index[0]} ({wins.iloc[0]} of {len(part)})",
             }
-        ]
-    )
+        )
+    return pd.DataFrame(rows)
 
 
 def support_table(entries: pd.DataFrame) -> pd.DataFrame:
-    """Per system and sampling step, each entry's share of seeds with the exact support at
-    every noise level (columns): where it stops recovering the right equations."""
+    """Per system, sampling step and starts, each entry's share of seeds with the exact
+    support at every noise level (columns): where it stops recovering the right equations."""
     table = entries.assign(step=entries["step_s"].map(step_label)).pivot_table(
-        index=["system", "step", "entry"], columns="level", values="exact_support", sort=False
+        index=["system", "step", "starts", "entry"],
+        columns="level",
+        values="exact_support",
+        sort=False,
     )
     table.columns = [f"{level:.1%}" for level in table.columns]
     return table.reset_index()
@@ -150,29 +161,27 @@ def step_label(step_s: float) -> str:
 
 
 def system_table(entries: pd.DataFrame, system: str) -> pd.DataFrame:
-    """One system: every entry's mean coefficient error (95 % interval) and share of exact
-    supports at each sampling step and noise level (columns), the best at the system's own
-    step and the highest level first."""
+    """One system: per record (sampling step and starts), every entry's mean coefficient
+    error (95 % interval) and share of exact supports at each noise level (columns), the
+    best at the highest level first."""
     part = entries[entries["system"] == system]
-    columns = sorted({(s, v) for s, v in zip(part["step_s"], part["level"], strict=True)})
-    first = columns[0][0]
-    hardest = part[(part["step_s"] == first) & (part["level"] == part["level"].max())]
-    order = hardest.sort_values("coefficient_error")["entry"].tolist()
+    levels = sorted(set(part["level"]))
     rows = []
-    for entry in order:
-        mine = part[part["entry"] == entry].set_index(["step_s", "level"])
-        row = {"entry": entry}
-        for step_s, level in columns:
-            name = f"{level:.1%}, {step_label(step_s)}"
-            if (step_s, level) not in mine.index:
-                row[name] = "—"
-                continue
-            found = mine.loc[(step_s, level)]
-            row[name] = (
-                f"{tables.plus_minus(found['coefficient_error'], found['ci_half'])}"
-                f" ({found['exact_support']:.0%} exact)"
-            )
-        rows.append(row)
+    for (step_s, starts), record in part.groupby(["step_s", "starts"]):
+        hardest = record[record["level"] == record["level"].max()]
+        for entry in hardest.sort_values("coefficient_error")["entry"]:
+            mine = record[record["entry"] == entry].set_index("level")
+            row = {"step": step_label(step_s), "starts": starts, "entry": entry}
+            for level in levels:
+                if level not in mine.index:
+                    row[f"{level:.1%}"] = "—"
+                    continue
+                found = mine.loc[level]
+                row[f"{level:.1%}"] = (
+                    f"{tables.plus_minus(found['coefficient_error'], found['ci_half'])}"
+                    f" ({found['exact_support']:.0%} exact)"
+                )
+            rows.append(row)
     return pd.DataFrame(rows)
 
 
@@ -184,13 +193,15 @@ FIGURE_PYSINDY = ("FiniteDifference", "SmoothedFiniteDifference")
 
 
 def write_figure(entries: pd.DataFrame, path: Path) -> Path:
-    """Coefficient error against noise level at each system's own step, one panel per
-    system, one line per entry of :data:`FIGURE_SOURCES` and :data:`FIGURE_PYSINDY` with its
-    95 % interval over the seeds (log-log; the lower bar cut at a tenth of the mean)."""
+    """Coefficient error against noise level at each system's own step from one start, one
+    panel per system, one line per entry of :data:`FIGURE_SOURCES` and :data:`FIGURE_PYSINDY`
+    with its 95 % interval over the seeds (log-log; the lower bar cut at a tenth of the
+    mean)."""
     plt = figures.pyplot()
     own_step = entries.groupby("system")["step_s"].transform("min")
     drawn = entries[
         (entries["step_s"] == own_step)
+        & (entries["starts"] == 1)
         & (
             entries["source"].isin(FIGURE_SOURCES)
             | ((entries["source"] == "pysindy") & entries["method"].isin(FIGURE_PYSINDY))
@@ -236,7 +247,7 @@ def write_figure(entries: pd.DataFrame, path: Path) -> Path:
 
 def write_report(rows: list[dict[str, Any]], directory: Path, seeds: int) -> list[Path]:
     """``headline.md``/``.csv`` (:func:`headline_table`), ``summary.md``/``.csv`` (the winner
-    per system, step and noise level), ``support.md``/``.csv``
+    per system, step, starts and noise level), ``support.md``/``.csv``
     (where each entry stops recovering the support), ``<system>.md``/``.csv`` per system,
     ``entries.csv`` (every entry's scores) and ``coefficient_error.png``."""
     directory.mkdir(parents=True, exist_ok=True)
@@ -244,7 +255,9 @@ def write_report(rows: list[dict[str, Any]], directory: Path, seeds: int) -> lis
     legend = (
         f"Mean over {seeds} noise seeds (Gaussian, the level times each state's std over the "
         "samples kept, `numpy.random.default_rng(seed)`); **step**: every sample of the "
-        "trajectory, at the system's own step, or every fifth, at five times it. "
+        "trajectory, at the system's own step, or every fifth, at five times it; **starts**: "
+        "one trajectory over the system's duration, or three from other initial conditions, "
+        "each a third as long, fitted together. "
         "**coefficient error**: "
         "‖Ξ̂ − Ξ‖_F / ‖Ξ‖_F over the system's polynomial library (STLSQ at the system's "
         "threshold, no ridge); **exact**: the share of seeds whose terms are "
@@ -274,7 +287,7 @@ def write_report(rows: list[dict[str, Any]], directory: Path, seeds: int) -> lis
         summary,
         tables.numbers_shown(summary, 3),
         "SINDy discovery: the differentiator that finds the equations best, per system, "
-        "sampling step and noise level",
+        "sampling step, starts and noise level",
         legend,
     )
     support = support_table(entries)

@@ -48,17 +48,20 @@ class SindyStudy(ItemStudy):
     systems: tuple[str, ...] = tuple(SYSTEMS)
     levels: tuple[float, ...] = study.NOISE_LEVELS
     steps: tuple[int, ...] = study.STEPS
+    starts: tuple[int, ...] = study.STARTS
     name: str = "sindy"
     description: str = (
-        "SINDy discovery on six systems with known equations at two sampling steps and four "
-        "noise levels: the coefficient error and support each differentiator leads to, "
-        "against the weak form"
+        "SINDy discovery on six systems with known equations at two sampling steps, from one "
+        "initial condition or three, at four noise levels: the coefficient error and support "
+        "each differentiator leads to, against the weak form"
     )
     default_seeds = 5
 
     def __post_init__(self) -> None:
         for system in self.systems:
-            get_system(system)  # ValueError naming the close ones
+            found = get_system(system)  # ValueError naming the close ones
+            if max(self.starts) > found.max_starts:
+                raise ValueError(f"`starts` must be at most {found.max_starts} for {system}")
 
     def entries(self, method_names) -> list[dict]:
         """Every entry compared (source, method, fixed params or None when found per item)."""
@@ -88,27 +91,31 @@ class SindyStudy(ItemStudy):
         items = []
         for system in self.systems:
             for every in self.steps:
-                # the system's own step is named by leaving ``every`` out of the setting
-                step = {} if every == 1 else {"every": every}
-                for level in self.levels:
-                    for entry in entries:
-                        setting = {**entry, "level": level, "seeds": len(seeds), **step}
-                        items.append(Item(system, setting))
+                for starts in self.starts:
+                    # the system's own step and one start are named by leaving ``every``
+                    # and ``starts`` out of the setting (the keys before either existed)
+                    record = {} if every == 1 else {"every": every}
+                    record |= {} if starts == 1 else {"starts": starts}
+                    for level in self.levels:
+                        for entry in entries:
+                            setting = {**entry, "level": level, "seeds": len(seeds), **record}
+                            items.append(Item(system, setting))
         return items
 
     def compute(self, item):
         setting = dict(item.setting)
         source, method, level = setting["source"], setting["method"], setting["level"]
-        every = setting.get("every", 1)
+        every, starts = setting.get("every", 1), setting.get("starts", 1)
+        record = (item.name, level)
         tuned_loss = None
         try:
             if source == "oracle":
-                found = study.oracle_params(item.name, level, method, every)
+                found = study.oracle_params(*record, method, every, starts)
                 setting["params"], tuned_loss = found["params"], found["loss"]
             elif source == "recommend":
-                setting["params"] = study.recommended_params(item.name, level, method, every)
+                setting["params"] = study.recommended_params(*record, method, every, starts)
             elif source == "weak form" and setting["params"] is None:
-                setting["params"] = study.weak_form_params(item.name, level, every)
+                setting["params"] = study.weak_form_params(*record, every, starts)
             elif source == "preset":
                 dt = get_system(item.name).dt_s * every
                 setting["params"] = study.preset_params(method, dt)
@@ -121,7 +128,7 @@ class SindyStudy(ItemStudy):
             return [_json({**self._described(item.name, setting), **failed})]
         described = self._described(item.name, setting)
         described["tuned_loss"] = tuned_loss
-        rows = study.entry_rows(item.name, level, setting, setting["seeds"], every)
+        rows = study.entry_rows(*record, setting, setting["seeds"], every, starts)
         return [_json({**described, **row}) for row in rows]
 
     @staticmethod
@@ -129,6 +136,7 @@ class SindyStudy(ItemStudy):
         return {
             "system": system,
             "step_s": get_system(system).dt_s * setting.get("every", 1),
+            "starts": setting.get("starts", 1),
             "level": setting["level"],
             "source": setting["source"],
             "method": setting["method"],

@@ -16,18 +16,21 @@ EPS = np.finfo(float).eps
 TRUTH = {"source": "truth", "method": "exact ẋ", "params": {}}
 
 
+@pytest.mark.parametrize("starts", [1, 3])
 @pytest.mark.parametrize("name", sorted(SYSTEMS))
-def test_the_exact_derivatives_recover_every_system_to_rounding(name):
-    """With the exact ẋ and states, STLSQ at the system's threshold keeps exactly the true
-    terms and its least-squares refit on them recovers the coefficients: the relative error
-    is within rounding amplified by the condition number of the library's true columns."""
+def test_the_exact_derivatives_recover_every_system_to_rounding(name, starts):
+    """With the exact ẋ and states, of one trajectory or three fitted together, STLSQ at the
+    system's threshold keeps exactly the true terms and its least-squares refit on them
+    recovers the coefficients: the relative error is within rounding amplified by the
+    condition number of the library's true columns."""
     system = get_system(name)
-    measurement = system.measure(0.1, seed=1)  # the truth entry reads the clean states
-    found, powers = sindy.discover(system, measurement, TRUTH)
+    runs = system.measure_runs(0.1, 1, starts=starts)  # the truth entry reads clean states
+    found, powers = sindy.discover(system, runs, TRUTH)
     truth = system.coefficient_matrix(powers)
     scores = sindy.coefficient_scores(found, truth)
     assert scores["exact_support"] == 1.0 and scores["precision"] == scores["recall"] == 1.0
-    features = np.prod(measurement.truth.x[:, None, :] ** powers, axis=2)
+    states = np.concatenate([run.truth.x for run in runs])
+    features = np.prod(states[:, None, :] ** powers, axis=2)
     condition = np.linalg.cond(features[:, np.any(truth != 0, axis=0)])
     assert scores["coefficient_error"] <= 100 * EPS * condition
     assert scores["coefficient_error"] <= 1e-6
@@ -99,7 +102,11 @@ def test_the_study_tunes_scores_and_reports_every_entry(tmp_path):
     """One system at one level, one native method: its oracle-tuned and preset entries, the
     truth, pysindy's and derivative's, the weak form; each item's rows, then the report."""
     study = SindyStudy(
-        systems=("linear-oscillator",), levels=(0.05,), steps=(1,), name="sindy-test"
+        systems=("linear-oscillator",),
+        levels=(0.05,),
+        steps=(1,),
+        starts=(1,),
+        name="sindy-test",
     )
     items = study.items(["spectral"], range(2))
     sources = [item.setting["source"] for item in items]
@@ -135,24 +142,26 @@ def test_an_unknown_system_or_method_is_named():
         SindyStudy().entries(["spectrall"])
 
 
-def test_a_native_entry_is_what_the_pysindy_adapter_gives():
-    """The study gives SINDy a method's trusted ẋ and smoothed states itself: the same model
-    as pysindy fitting with diffbench's Differentiation adapter, bit for bit."""
+@pytest.mark.parametrize("starts", [1, 3])
+def test_a_native_entry_is_what_the_pysindy_adapter_gives(starts):
+    """The study gives SINDy a method's trusted ẋ and smoothed states itself, each trajectory
+    differentiated on its own: the same model as pysindy fitting the trajectories with
+    diffbench's Differentiation adapter, bit for bit."""
     import pysindy as ps
 
     from diffbench.methods.for_pysindy import Differentiation
 
     system = get_system("duffing")
-    measurement = system.measure(0.05, seed=2)
+    runs = system.measure_runs(0.05, 2, starts=starts)
     params = {"window_s": 0.4, "degree": 3}
     entry = {"source": "preset", "method": "savitzky_golay", "params": params}
-    found, _ = sindy.discover(system, measurement, entry)
+    found, _ = sindy.discover(system, runs, entry)
     model = ps.SINDy(
         feature_library=ps.PolynomialLibrary(degree=system.degree),
         optimizer=ps.STLSQ(threshold=system.threshold, alpha=0.0),
         differentiation_method=Differentiation("savitzky_golay", params),
     )
-    model.fit(measurement.x, t=system.dt_s)
+    model.fit([run.x for run in runs], t=system.dt_s)
     assert np.array_equal(found, model.coefficients())
 
 
@@ -165,15 +174,17 @@ def test_the_recommended_setting_is_chosen_from_the_noisy_data_alone(monkeypatch
 
     first = sindy.recommended_params("van-der-pol", 0.05, "spectral")
     assert len(first["states"]) == len(first["scales"]) == 2
-    measure = dynamics.PolynomialSystem.measure
+    measure_runs = dynamics.PolynomialSystem.measure_runs
 
-    def blind(self, level, seed, every=1):
-        measured = measure(self, level, seed, every)
-        nothing = np.full_like(measured.truth.x, np.nan)
-        truth = dataclasses.replace(measured.truth, x=nothing, x_dot=nothing)
-        return dataclasses.replace(measured, truth=truth)
+    def blind(self, level, seed, every=1, starts=1):
+        runs = []
+        for measured in measure_runs(self, level, seed, every, starts):
+            nothing = np.full_like(measured.truth.x, np.nan)
+            truth = dataclasses.replace(measured.truth, x=nothing, x_dot=nothing)
+            runs.append(dataclasses.replace(measured, truth=truth))
+        return tuple(runs)
 
-    monkeypatch.setattr(dynamics.PolynomialSystem, "measure", blind)
+    monkeypatch.setattr(dynamics.PolynomialSystem, "measure_runs", blind)
     assert sindy.recommended_params("van-der-pol", 0.05, "spectral") == first
 
 
@@ -185,11 +196,11 @@ def test_the_weak_forms_tuned_k_is_at_least_as_good_as_its_default_on_the_tuning
     system = get_system("van-der-pol")
     chosen = sindy.weak_form_params("van-der-pol", 0.05)
     assert chosen["K"] in sindy.WEAK_FORM_K and 100 in sindy.WEAK_FORM_K
-    measurement = system.measure(0.05, tuning.TUNING_SEED)
+    runs = system.measure_runs(0.05, tuning.TUNING_SEED)
 
     def error(params):
         entry = {"source": "weak form", "params": params}
-        found, powers = sindy.discover(system, measurement, entry)
+        found, powers = sindy.discover(system, runs, entry)
         return sindy.coefficient_scores(found, system.coefficient_matrix(powers))
 
     assert error(chosen)["coefficient_error"] <= error({})["coefficient_error"]
@@ -208,7 +219,8 @@ def test_the_coarser_step_keeps_every_fifth_sample_and_the_own_steps_items_their
     np.testing.assert_array_equal(coarse.noise_std, 0.05 * fine.truth.x[::5].std(axis=0))
     with pytest.raises(ValueError, match="`every` must be a whole number >= 1"):
         system.measure(0.05, seed=3, every=0)
-    items = SindyStudy(systems=("duffing",), levels=(0.05,)).items(["spectral"], range(2))
+    study = SindyStudy(systems=("duffing",), levels=(0.05,), starts=(1,))
+    items = study.items(["spectral"], range(2))
     own = [item for item in items if "every" not in item.setting]
     fifth = [item for item in items if item.setting.get("every") == 5]
     assert len(own) == len(fifth) == len(items) / 2
@@ -235,3 +247,54 @@ def test_the_entries_table_spells_a_setting_one_way_whatever_its_key_order():
     stored = sindy_report.entries_frame([{**row, "params": {"cutoff_hz": 2.5, "order": 7}}])
     pd.testing.assert_frame_equal(computed, stored)
     assert computed.loc[0, "params"] == '{"cutoff_hz":2.5,"order":7}'
+
+
+def test_three_starts_are_items_of_their_own_and_one_start_keeps_its_keys():
+    """The items from one start name no starts (the store keys they had before records had
+    several), those from three name them; a three-start item's rows say so, and the truth
+    entry recovers the equations there too."""
+    items = SindyStudy(systems=("duffing",), levels=(0.05,), steps=(1,)).items([], range(2))
+    one = [item for item in items if "starts" not in item.setting]
+    three = [item for item in items if item.setting.get("starts") == 3]
+    assert len(one) == len(three) == len(items) / 2
+    truth = next(item for item in three if item.setting["source"] == "truth")
+    rows = SindyStudy(systems=("duffing",)).compute(truth)
+    assert [row["starts"] for row in rows] == [3, 3]
+    assert all(row["exact_support"] == 1.0 for row in rows)
+    with pytest.raises(ValueError, match="`starts` must be at most 3 for duffing"):
+        SindyStudy(systems=("duffing",), starts=(1, 4))
+
+
+def test_the_headline_has_a_row_per_number_of_starts_and_old_rows_count_as_one():
+    """A row stored before records had several starts (no ``starts``) is a one-start row;
+    the headline compares the best pointwise entry with the weak form per number of
+    starts."""
+    from diffbench.bench.studies import sindy_report
+
+    def row(starts, source, method, error):
+        found = {
+            "system": "duffing",
+            "step_s": 0.01,
+            "level": 0.05,
+            "source": source,
+            "method": method,
+            "params": {},
+            "seed": 0,
+            "failure": "",
+            **dict.fromkeys(sindy.SCORES, 0.0),
+            "coefficient_error": error,
+        }
+        return found if starts is None else {**found, "starts": starts}
+
+    rows = [
+        row(None, "oracle", "spectral", 0.01),
+        row(None, "weak form", "WeakPDELibrary", 0.04),
+        row(3, "oracle", "spectral", 0.05),
+        row(3, "weak form", "WeakPDELibrary", 0.02),
+    ]
+    entries = sindy_report.entries_frame(rows)
+    assert sorted(entries["starts"]) == [1, 1, 3, 3]
+    headline = sindy_report.headline_table(sindy_report.summary_table(entries))
+    beats = headline["best pointwise differentiator beats the weak form on"].tolist()
+    ratios = headline["its error / the weak form's, median"].tolist()
+    assert beats == [1, 0] and ratios == ["0.25×", "2.50×"]

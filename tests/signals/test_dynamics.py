@@ -100,6 +100,41 @@ def test_measurements_add_seeded_noise_of_the_level_of_each_state():
     assert np.array_equal(system.measure(0.0, seed=3).x, measured.truth.x)
 
 
+@pytest.mark.parametrize("name", sorted(SYSTEMS))
+def test_a_measurement_of_several_starts_shares_the_samples_and_one_start_is_measure(name):
+    """One start is ``measure`` bit for bit; three are trajectories from ``initial`` and the
+    declared starts, each a third of the duration at the system's step, the noise's level
+    taken over all of their samples and drawn with the seed's one generator in order."""
+    system = get_system(name)
+    (one,) = system.measure_runs(0.05, 7)
+    assert np.array_equal(one.x, system.measure(0.05, 7).x)
+    runs = system.measure_runs(0.05, 7, every=5, starts=3)
+    assert len(runs) == 3 and system.max_starts == 3
+    third = round(system.duration_s / 3 / system.dt_s)
+    for run, start in zip(runs, (system.initial, *system.starts), strict=True):
+        np.testing.assert_array_equal(run.truth.x[0], start)
+        np.testing.assert_array_equal(run.t, system.dt_s * np.arange(0, third + 1, 5))
+        assert run.dt_s == 5 * system.dt_s
+    spread = np.concatenate([run.truth.x for run in runs]).std(axis=0)
+    np.testing.assert_array_equal(runs[0].noise_std, 0.05 * spread)
+    rng = np.random.default_rng(7)
+    for run in runs:
+        expected = run.truth.x + 0.05 * spread * rng.standard_normal(run.x.shape)
+        np.testing.assert_array_equal(run.x, expected)
+    with pytest.raises(ValueError, match=r"`starts` must be in 1..3"):
+        system.measure_runs(0.05, 7, starts=4)
+    with pytest.raises(ValueError, match="`starts` must be a whole number"):
+        system.measure_runs(0.05, 7, starts=2.0)
+
+
+def test_a_system_refuses_a_measured_start_that_is_also_held_out():
+    import dataclasses
+
+    lorenz = get_system("lorenz")
+    with pytest.raises(ValueError, match="the measured and held-out starts must differ"):
+        dataclasses.replace(lorenz, starts=(lorenz.held_out[0],))
+
+
 def test_an_unknown_system_is_named_with_the_close_ones():
     with pytest.raises(ValueError, match="unknown system 'lorenzz'; did you mean 'lorenz'"):
         get_system("lorenzz")
