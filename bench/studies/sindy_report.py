@@ -128,7 +128,9 @@ def headline_table(summary: pd.DataFrame) -> pd.DataFrame:
         wins = part["winner"].value_counts()
         rows.append(
             {
-                "trajectories": f"{starts} ({'one start' if starts == 1 else 'the same samples'})",
+                "trajectories": (
+                    "1, the whole duration" if starts == 1 else f"{starts}, each 1/{starts} of it"
+                ),
                 "records (systems × steps × noise levels)": len(part),
                 "best pointwise differentiator beats the weak form on": int(
                     np.sum(ratios[compared] < 1)
