@@ -3,6 +3,7 @@ the true library, a diverging model is caught at its analytic blow-up time, ever
 as a row (pysindy's defaults and the weak form included), and the report is written."""
 
 import math
+import re
 
 import numpy as np
 import pandas as pd
@@ -298,3 +299,36 @@ def test_the_headline_has_a_row_per_number_of_starts_and_old_rows_count_as_one()
     beats = headline["best pointwise differentiator beats the weak form on"].tolist()
     ratios = headline["its error / the weak form's, median"].tolist()
     assert beats == [1, 0] and ratios == ["0.25×", "2.50×"]
+
+
+def _evaluated(text: str, state: dict) -> float:
+    """A written right-hand side (``-x z + 28 x - y``) at ``state``."""
+    total = 0.0
+    for signed in re.findall(r"(^-?|[+-] )([^+-]+)", text.strip()):
+        sign = -1.0 if signed[0].strip() == "-" else 1.0
+        value = sign
+        for factor in signed[1].split():
+            name, _, power = factor.partition("^")
+            value *= state[name] ** int(power or 1) if name in state else float(name)
+        total += value
+    return total
+
+
+def test_the_systems_table_writes_each_systems_equations_and_threshold():
+    """The equations as written, read back, give each system's right-hand side at a state
+    (the coefficients to the four digits written); the threshold is below every true
+    coefficient's magnitude."""
+    from diffbench.bench.studies import sindy_report
+
+    assert sindy_report.equation_text(get_system("lorenz")) == (
+        "x' = -10 x + 10 y; y' = -x z + 28 x - y; z' = x y - 2.667 z"
+    )
+    table = sindy_report.systems_table(sorted(SYSTEMS))
+    state = {"x": 0.7, "y": -1.3, "z": 2.1}
+    for _, row in table.iterrows():
+        system = get_system(row["system"])
+        written = [_evaluated(rhs.split("=")[1], state) for rhs in row["equations"].split("; ")]
+        exact = system.rhs(np.array([state[name] for name in system.states]))
+        np.testing.assert_allclose(written, exact, rtol=1e-3)
+        smallest = min(abs(v) for terms in system.terms for v in terms.values())
+        assert row["STLSQ threshold"] == system.threshold < smallest
