@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from dataclasses import dataclass
@@ -188,6 +189,75 @@ class Gains:
     filter_gains: np.ndarray  # (T, m)
     smoother_gains: np.ndarray  # (T, m, m)
     steady: SteadyState
+    transient: TransientMaps | None = None  # the transient's block maps, when prepared
+    modes: _SmootherModes | None = None  # the steady passes' modes, when prepared
+
+
+TRANSIENT_BLOCK = 32
+"""Steps of the transient each block map of :class:`TransientMaps` covers."""
+
+
+@dataclass(frozen=True)
+class TransientMaps:
+    r"""The transient of the filter and smoother as affine maps over blocks of
+    :data:`TRANSIENT_BLOCK` steps (data-independent; :func:`transient_maps`), so that a call
+    steps through a block with two array products instead of one per sample.
+
+    Forward, over a block of steps a..e-1, the filter
+    :math:`\hat s_k = A_k \hat s_{k-1} + K_k z_k` with :math:`A_k = F - K_k F_{0\cdot}`
+    (predict, then update at every sample) is
+
+    .. math:: \hat s_{a+i} = \Phi_i \hat s_{a-1} + \sum_{j \le i} \Psi_{ij} z_{a+j},
+       \quad \Phi_i = A_{a+i} \Phi_{i-1}, \quad \Psi_{ij} = A_{a+i} \Psi_{i-1,j},
+       \quad \Psi_{ii} = K_{a+i};
+
+    backward, the smoother :math:`\tilde s_k = \hat s_k + C_k(\tilde s_{k+1} - F\hat s_k)`
+    is
+
+    .. math:: \tilde s_{a+i} = \Gamma_i \tilde s_e + \sum_{j \ge i} \Omega_{ij}
+       \hat s_{a+j}, \quad \Gamma_i = C_{a+i} \Gamma_{i+1}, \quad
+       \Omega_{ij} = C_{a+i} \Omega_{i+1,j}, \quad \Omega_{ii} = I - C_{a+i} F.
+
+    Each list holds one array per block: ``forward_state`` (B, m, m), ``forward_data``
+    (B, m, B), ``backward_state`` (B, m, m), ``backward_data`` (B, m, B, m)."""
+
+    forward_state: list
+    forward_data: list
+    backward_state: list
+    backward_data: list
+
+
+def transient_maps(filter_gains: np.ndarray, smoother_gains: np.ndarray, F: np.ndarray):
+    """:class:`TransientMaps` of the transient gains K_k (T, m) and C_k (T, m, m) of the model
+    with transition ``F``: one step at a time, each map from the one before (the
+    recursions of :class:`TransientMaps`)."""
+    m, steps = F.shape[0], filter_gains.shape[0]
+    transitions = F[None] - filter_gains[:, :, None] * F[0][None, None, :]  # A_k
+    to_smoothed = np.eye(m)[None] - smoother_gains @ F  # I - C_k F
+    maps = TransientMaps([], [], [], [])
+    for a in range(0, steps, TRANSIENT_BLOCK):
+        size = min(TRANSIENT_BLOCK, steps - a)
+        state = np.empty((size, m, m))
+        data = np.zeros((size, m, size))
+        state[0], data[0, :, 0] = transitions[a], filter_gains[a]
+        for i in range(1, size):
+            state[i] = transitions[a + i] @ state[i - 1]
+            data[i, :, :i] = transitions[a + i] @ data[i - 1, :, :i]
+            data[i, :, i] = filter_gains[a + i]
+        back_state = np.empty((size, m, m))
+        back_data = np.zeros((size, m, size, m))
+        last = a + size - 1
+        back_state[-1], back_data[-1, :, -1] = smoother_gains[last], to_smoothed[last]
+        for i in range(size - 2, -1, -1):
+            gain = smoother_gains[a + i]
+            back_state[i] = gain @ back_state[i + 1]
+            back_data[i, :, i + 1 :] = np.einsum("mn,njk->mjk", gain, back_data[i + 1, :, i + 1 :])
+            back_data[i, :, i] = to_smoothed[a + i]
+        maps.forward_state.append(state)
+        maps.forward_data.append(data)
+        maps.backward_state.append(back_state)
+        maps.backward_data.append(back_data)
+    return maps
 
 
 CONVERGENCE_BLOCK = 16
@@ -454,7 +524,13 @@ any setting with ``bandwidth_hz * dt`` >= 2e-4, whose results thus keep their bi
 
 
 def _blocked_steady_passes(
-    z: np.ndarray, steady: SteadyState, F: np.ndarray, before: np.ndarray, components, out
+    z: np.ndarray,
+    steady: SteadyState,
+    F: np.ndarray,
+    before: np.ndarray,
+    components,
+    out,
+    modes: _SmootherModes | None = None,
 ) -> np.ndarray:
     r""":func:`_steady_passes` by blocks of B = :data:`BLOCK_STEPS` samples, the smoothed
     ``components`` written into ``out`` (len(components), N, channels); returns the whole
@@ -479,13 +555,14 @@ def _blocked_steady_passes(
     state at their first sample starts the backward carries. The same values to rounding
     (tested against eps cond(V) cond(W) (B + g²) of the output, g = 1/(1 - max|pole|); seen
     about 1e-14 relative), in a third of the time at 1e6 samples (C. S. Burrus, "Block
-    realization of digital filters", IEEE Trans. Audio Electroacoust. 20 (1972) 230-235)."""
+    realization of digital filters", IEEE Trans. Audio Electroacoust. 20 (1972) 230-235).
+    ``modes``: :func:`_smoother_modes` of ``steady`` and F, if the caller has them."""
     m = F.shape[0]
     n, channels = z.shape
     block = BLOCK_STEPS
     count = (n - 1) // block  # whole blocks; the tail keeps 1..B samples
     head = count * block
-    modes = _smoother_modes(steady, F)
+    modes = _smoother_modes(steady, F) if modes is None else modes
     (
         poles,
         vectors,
@@ -593,29 +670,77 @@ def rts_smooth(
     n = z.shape[0]
     gains = covariance_recursion(model, covariance0, n) if gains is None else gains
     transient = min(n, len(gains.filter_gains))
-    filtered = np.empty((transient, m, z.shape[1]))
-    state = mean0
-    gain_columns = gains.filter_gains[:transient, :, None]
-    for k in range(transient):  # s_k = F s_{k-1} + K_k (z_k - (F s_{k-1})_0), in place
-        state = np.matmul(F, state, out=filtered[k])
-        state += gain_columns[k] * (z[k] - state[0])
+    # by block maps when they are prepared and the whole transient is run (a record longer
+    # than it), else step by step
+    blocked = gains.transient is not None and n > transient
+    if blocked:
+        filtered = _blocked_filter(z, gains.transient, mean0)
+    else:
+        filtered = np.empty((transient, m, z.shape[1]))
+        state = mean0
+        gain_columns = gains.filter_gains[:transient, :, None]
+        for k in range(transient):  # s_k = F s_{k-1} + K_k (z_k - (F s_{k-1})_0), in place
+            state = np.matmul(F, state, out=filtered[k])
+            state += gain_columns[k] * (z[k] - state[0])
     smoothed = np.empty((len(components), n, z.shape[1]))  # component by component
     if n - transient >= max(BLOCKED_FROM, BLOCK_STEPS + 1):
         following = _blocked_steady_passes(
-            z[transient:], gains.steady, F, filtered[-1], components, smoothed[:, transient:]
+            z[transient:],
+            gains.steady,
+            F,
+            filtered[-1],
+            components,
+            smoothed[:, transient:],
+            gains.modes,
         )
     elif n > transient:
         smoothed[:, transient:], following = _steady_passes(
-            z[transient:], gains.steady, F, filtered[-1], components
+            z[transient:], gains.steady, F, filtered[-1], components, gains.modes
         )
     else:
         following = filtered[-1]
         smoothed[:, -1] = following[components]
+    if blocked:
+        _blocked_smoother(filtered, gains.transient, following, components, smoothed)
+        return smoothed.transpose(1, 0, 2)
     predicted = F @ filtered  # F s_k for every transient k at once (the same bits)
     for k in range(min(n - 2, transient - 1), -1, -1):
         following = filtered[k] + gains.smoother_gains[k] @ (following - predicted[k])
         smoothed[:, k] = following[components]
     return smoothed.transpose(1, 0, 2)
+
+
+def _blocked_filter(z: np.ndarray, maps: TransientMaps, mean0: np.ndarray) -> np.ndarray:
+    """The filtered states of the transient (T, m, channels) by :class:`TransientMaps`, from
+    the prior mean ``mean0`` (m, channels)."""
+    blocks = []
+    state, a = mean0, 0
+    for transition, data in zip(maps.forward_state, maps.forward_data, strict=True):
+        size = transition.shape[0]
+        driven = (data.reshape(size * data.shape[1], size) @ z[a : a + size]).reshape(
+            size, data.shape[1], -1
+        )
+        block = transition @ state + driven
+        blocks.append(block)
+        state, a = block[-1], a + size
+    return np.concatenate(blocks)
+
+
+def _blocked_smoother(filtered, maps: TransientMaps, following, components, smoothed) -> None:
+    """The smoothed ``components`` of the transient written into ``smoothed`` (components,
+    n, channels) by :class:`TransientMaps`, from the smoothed state ``following`` (m,
+    channels) just after it and its filtered states (T, m, channels)."""
+    a = filtered.shape[0]
+    for transition, data in zip(maps.backward_state[::-1], maps.backward_data[::-1], strict=True):
+        size = transition.shape[0]
+        a -= size
+        flat = size * data.shape[1]
+        driven = (data.reshape(flat, flat) @ filtered[a : a + size].reshape(flat, -1)).reshape(
+            size, data.shape[1], -1
+        )
+        block = transition @ following + driven
+        smoothed[:, a : a + size] = block[:, components].transpose(1, 0, 2)
+        following = block[0]
 
 
 SETTLING = 1e-7
@@ -630,7 +755,10 @@ def prior_gains(model_order: int, dt: float, bandwidth_hz: float) -> Gains:
     (tuning, the ends' probes)."""
     model = _cached_model(model_order, dt, bandwidth_hz)
     _, covariance0 = initial_state(np.zeros((4 * model.states, 1)), model.per_step_coefficient)
-    return covariance_recursion(model, covariance0, 10**6)
+    gains = covariance_recursion(model, covariance0, 10**6)
+    maps = transient_maps(gains.filter_gains, gains.smoother_gains, model.F)
+    modes = _smoother_modes(gains.steady, model.F)
+    return dataclasses.replace(gains, transient=maps, modes=modes)
 
 
 @functools.lru_cache(maxsize=64)

@@ -1,5 +1,5 @@
 """The Kalman smoother against filterpy's own filter and smoother, by recursions and by
-blocks (long records)."""
+blocks (long records), its transient step by step and by block maps (the cached prior's)."""
 
 import math
 
@@ -43,14 +43,27 @@ def steady_path(request, monkeypatch):
     return request.param
 
 
-def _fast_and_filterpy(model_order, n, bandwidth_hz, dt):
+@pytest.fixture(params=["steps", "maps"])
+def transient_path(request):
+    """Runs a test with the transient stepped sample by sample (the recursion run for the
+    record), and again by the block maps of :func:`kalman.prior_gains` (the cached prior's
+    gains, as the method runs; on records longer than the transient)."""
+    return request.param
+
+
+def _fast_and_filterpy(model_order, n, bandwidth_hz, dt, transient_path="steps"):
     """The smoothed states of a noisy sine plus parabola by rts_smooth and by filterpy."""
     rng = np.random.default_rng(n + model_order)
     t = np.arange(n) * dt
     z = np.sin(2 * np.pi * 3 * t) + 0.5 * t**2 + 0.1 * rng.standard_normal(n)
     model = polynomial_model(model_order, dt, bandwidth_hz)
     mean0, covariance0 = initial_state(z[:, None], model.per_step_coefficient)
-    fast = rts_smooth(z[:, None], model, mean0, covariance0)[:, :, 0]
+    gains = None
+    if transient_path == "maps":
+        gains = kalman.prior_gains(model_order, dt, bandwidth_hz)
+        if n <= len(gains.filter_gains):
+            pytest.skip("the block maps serve records longer than the transient")
+    fast = rts_smooth(z[:, None], model, mean0, covariance0, gains=gains)[:, :, 0]
     reference = _filterpy(z, model, mean0[:, 0], covariance0)
     return fast, reference
 
@@ -70,8 +83,10 @@ def _fast_and_filterpy(model_order, n, bandwidth_hz, dt):
         (3, 1500, 440.0, 1e-3),
     ],
 )
-def test_fast_smoother_equals_filterpy(model_order, n, bandwidth_hz, dt, steady_path):
-    fast, reference = _fast_and_filterpy(model_order, n, bandwidth_hz, dt)
+def test_fast_smoother_equals_filterpy(
+    model_order, n, bandwidth_hz, dt, steady_path, transient_path
+):
+    fast, reference = _fast_and_filterpy(model_order, n, bandwidth_hz, dt, transient_path)
     scale = np.max(np.abs(reference), axis=0)
     # the vague prior (PRIOR_SCALE) leaves the first steps ill-conditioned: both computations
     # round differently there (measured 4e-9 of the jerk state's size at 5 Hz, 3000 samples)
@@ -82,13 +97,15 @@ def test_fast_smoother_equals_filterpy(model_order, n, bandwidth_hz, dt, steady_
     ("model_order", "n", "bandwidth_hz", "dt"),
     [(4, 3000, 20.0, 1e-3), (5, 3000, 24.0, 1e-3), (5, 500, 2.0, 0.01)],
 )
-def test_fast_smoother_equals_filterpy_at_the_higher_orders(model_order, n, bandwidth_hz, dt):
+def test_fast_smoother_equals_filterpy_at_the_higher_orders(
+    model_order, n, bandwidth_hz, dt, transient_path
+):
     """Orders 4 and 5 against filterpy too. Their vague prior is fitted through the first 4m
     samples by a Vandermonde V of m = 5, 6 columns (cond(VᵀV) 2e11, 9e14), whose inverse the
     prior's covariance is: the two computations start from it rounded differently, and the
     first estimates can differ by up to eps cond(VᵀV) times the state's size (seen: at most
     3e-6 of it, under SkylakeX, Haswell and Sandybridge)."""
-    fast, reference = _fast_and_filterpy(model_order, n, bandwidth_hz, dt)
+    fast, reference = _fast_and_filterpy(model_order, n, bandwidth_hz, dt, transient_path)
     states = model_order + 1
     steps = np.arange(1, 4 * states + 1, dtype=float)
     vandermonde = steps[:, None] ** np.arange(states)[None, :]
@@ -364,3 +381,57 @@ def test_the_higher_orders_reproduce_their_polynomials_on_every_estimated_sample
             / dt**order
         )
         np.testing.assert_allclose(estimate[order], truth, rtol=0, atol=allowed)
+
+
+@pytest.mark.parametrize(("model_order", "bandwidth_hz"), [(2, 20.0), (3, 24.0), (5, 200.0)])
+def test_the_transient_maps_are_the_steps_composed(model_order, bandwidth_hz):
+    """Each block map applied to a basis vector is the recursion stepped through the block
+    from it: Φ_i e_l the filter's i-th state from ŝ_{a-1} = e_l and no data, Ψ_ij the one from
+    a unit sample at a + j; Γ_i, Ω_ij likewise backward. Each is a product of at most B
+    matrices (rounding eps per product and entry, over entries summed with their absolute
+    values: within B m eps times the product of the absolute matrices)."""
+    dt = 1e-3
+    gains = kalman.prior_gains(model_order, dt, bandwidth_hz)
+    model = polynomial_model(model_order, dt, bandwidth_hz)
+    m, F = model.states, model.F
+    maps = gains.transient
+    a = kalman.TRANSIENT_BLOCK  # the second block (the first when the transient is one)
+    block = 1 if len(maps.forward_state) > 1 else 0
+    a *= block
+    size = maps.forward_state[block].shape[0]
+    transitions = [F - np.outer(gains.filter_gains[a + i], F[0]) for i in range(size)]
+    smoother = [gains.smoother_gains[a + i] for i in range(size)]
+    eps = np.finfo(float).eps
+    bound_forward, bound_backward = np.eye(m), np.eye(m)
+    for i in range(size):
+        bound_forward = np.abs(transitions[i]) @ bound_forward
+        state = np.eye(m)
+        for k in range(i + 1):
+            state = transitions[k] @ state
+        tolerance = size * m * eps * bound_forward
+        assert np.all(np.abs(maps.forward_state[block][i] - state) <= tolerance)
+        for j in range(i + 1):
+            column = gains.filter_gains[a + j]
+            for k in range(j + 1, i + 1):
+                column = transitions[k] @ column
+            np.testing.assert_allclose(
+                maps.forward_data[block][i, :, j], column, rtol=0, atol=tolerance.max()
+            )
+    last = size - 1
+    for i in range(last, -1, -1):
+        bound_backward = np.abs(smoother[i]) @ bound_backward
+        state = np.eye(m)
+        for k in range(last, i - 1, -1):
+            state = smoother[k] @ state
+        tolerance = size * m * eps * bound_backward
+        assert np.all(np.abs(maps.backward_state[block][i] - state) <= tolerance)
+        own = np.eye(m) - smoother[i] @ F
+        np.testing.assert_array_equal(maps.backward_data[block][i, :, i], own)
+        for j in range(i + 1, size):
+            through = np.eye(m) - smoother[j] @ F
+            for k in range(j - 1, i - 1, -1):
+                through = smoother[k] @ through
+            scale = np.abs(through).max() + np.abs(own).max()
+            np.testing.assert_allclose(
+                maps.backward_data[block][i, :, j], through, rtol=0, atol=tolerance.max() * scale
+            )
