@@ -270,6 +270,7 @@ TUNING_VARIANTS = (
     ("oracle", "oracle", 1, "interior"),
     ("oracle 10 seeds", "oracle", 10, "interior"),
     ("oracle 10 seeds whole", "oracle", 10, "whole"),
+    ("oracle whole", "oracle", 1, "whole"),
     ("no-truth", "no-truth", 1, "interior"),
     ("pynumdiff", "pynumdiff", 1, "interior"),
 )

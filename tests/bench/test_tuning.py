@@ -459,6 +459,7 @@ def test_tuning_table_keeps_each_tuning_apart_on_the_interior_and_the_whole_reco
         cells("preset", "", 1, "interior", 5.0, 9.0, 0.95)
         + cells("tuned", "oracle", 1, "interior", 3.0, 8.0, 0.9)
         + cells("tuned", "oracle", 10, "whole", 4.0, 6.0, 1.0)
+        + cells("tuned", "oracle", 1, "whole", 3.5, 5.5, 1.0)
     )
     tunings = pd.DataFrame(
         [
@@ -470,7 +471,7 @@ def test_tuning_table_keeps_each_tuning_apart_on_the_interior_and_the_whole_reco
                 "region": r,
                 "seconds": t,
             }
-            for s, r, t in ((1, "interior", 2.0), (10, "whole", 20.0))
+            for s, r, t in ((1, "interior", 2.0), (10, "whole", 20.0), (1, "whole", 3.0))
         ]
     )
     table = tuning_table(frame, tunings).set_index("scored on")
@@ -480,6 +481,12 @@ def test_tuning_table_keeps_each_tuning_apart_on_the_interior_and_the_whole_reco
     assert pd.isna(interior["oracle 10 seeds"]) and pd.isna(interior["no-truth"])
     assert whole["oracle s"] == 2.0 and whole["oracle 10 seeds whole s"] == 20.0
     assert whole["least coverage"] == 0.9 and pd.isna(interior["least coverage"])
+    # one tuning seed on the whole record: its own column, not the 10 seeds' nor the interior's
+    assert (interior["oracle whole"], whole["oracle whole"], whole["oracle whole s"]) == (
+        3.5,
+        5.5,
+        3.0,
+    )
 
 
 def test_the_tuning_table_says_which_columns_were_screened():
