@@ -191,7 +191,21 @@ class Gains:
     steady: SteadyState
     transient: TransientMaps | None = None  # the transient's block maps, when prepared
     modes: _SmootherModes | None = None  # the steady passes' modes, when prepared
+    # cached gains (prior_gains): their uses and their block maps, built at the second use
+    prepared: dict | None = dataclasses.field(default=None, compare=False, repr=False)
 
+
+MAPS_FROM_USE = 2
+"""The use of cached gains (on at most :data:`MAPS_MAX_CHANNELS` channels) at which their
+:class:`TransientMaps` are built: building them costs about as much as stepping through the
+transient once or twice (3 ms for the paper preset, 15 ms for a bandwidth of 5 Hz at 1 kHz),
+so a setting called once (a tuning's evaluation) keeps the steps, one called again (a
+user's records, a tuning over several seeds) has them."""
+
+MAPS_MAX_CHANNELS = 8
+"""The most channels a call may have to use the block maps: the ends check's probes run a
+hundred channels on short records, where one step of the recursion costs what a channel
+does and the maps' products cost a hundred times more."""
 
 TRANSIENT_BLOCK = 32
 """Steps of the transient each block map of :class:`TransientMaps` covers."""
@@ -251,7 +265,8 @@ def transient_maps(filter_gains: np.ndarray, smoother_gains: np.ndarray, F: np.n
         for i in range(size - 2, -1, -1):
             gain = smoother_gains[a + i]
             back_state[i] = gain @ back_state[i + 1]
-            back_data[i, :, i + 1 :] = np.einsum("mn,njk->mjk", gain, back_data[i + 1, :, i + 1 :])
+            following = back_data[i + 1, :, i + 1 :].reshape(m, -1)
+            back_data[i, :, i + 1 :] = (gain @ following).reshape(m, -1, m)
             back_data[i, :, i] = to_smoothed[a + i]
         maps.forward_state.append(state)
         maps.forward_data.append(data)
@@ -672,9 +687,10 @@ def rts_smooth(
     transient = min(n, len(gains.filter_gains))
     # by block maps when they are prepared and the whole transient is run (a record longer
     # than it), else step by step
-    blocked = gains.transient is not None and n > transient
+    maps = _transient_maps_of(gains, F, z.shape[1]) if n > transient else None
+    blocked = maps is not None
     if blocked:
-        filtered = _blocked_filter(z, gains.transient, mean0)
+        filtered = _blocked_filter(z, maps, mean0)
     else:
         filtered = np.empty((transient, m, z.shape[1]))
         state = mean0
@@ -701,7 +717,7 @@ def rts_smooth(
         following = filtered[-1]
         smoothed[:, -1] = following[components]
     if blocked:
-        _blocked_smoother(filtered, gains.transient, following, components, smoothed)
+        _blocked_smoother(filtered, maps, following, components, smoothed)
         return smoothed.transpose(1, 0, 2)
     predicted = F @ filtered  # F s_k for every transient k at once (the same bits)
     for k in range(min(n - 2, transient - 1), -1, -1):
@@ -756,9 +772,25 @@ def prior_gains(model_order: int, dt: float, bandwidth_hz: float) -> Gains:
     model = _cached_model(model_order, dt, bandwidth_hz)
     _, covariance0 = initial_state(np.zeros((4 * model.states, 1)), model.per_step_coefficient)
     gains = covariance_recursion(model, covariance0, 10**6)
-    maps = transient_maps(gains.filter_gains, gains.smoother_gains, model.F)
     modes = _smoother_modes(gains.steady, model.F)
-    return dataclasses.replace(gains, transient=maps, modes=modes)
+    return dataclasses.replace(gains, modes=modes, prepared={})
+
+
+def _transient_maps_of(gains: Gains, F: np.ndarray, channels: int) -> TransientMaps | None:
+    """The block maps a call runs the transient by: ``gains.transient`` when given, else
+    those of cached gains (``prepared``) from their :data:`MAPS_FROM_USE`-th use on at most
+    :data:`MAPS_MAX_CHANNELS` channels (built then, kept with them); None to step."""
+    if gains.transient is not None:
+        return gains.transient
+    if gains.prepared is None or channels > MAPS_MAX_CHANNELS:
+        return None
+    maps = gains.prepared.get("maps")
+    if maps is None:
+        gains.prepared["uses"] = gains.prepared.get("uses", 0) + 1
+        if gains.prepared["uses"] >= MAPS_FROM_USE:
+            maps = transient_maps(gains.filter_gains, gains.smoother_gains, F)
+            gains.prepared["maps"] = maps
+    return maps
 
 
 @functools.lru_cache(maxsize=64)

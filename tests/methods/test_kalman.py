@@ -1,6 +1,7 @@
 """The Kalman smoother against filterpy's own filter and smoother, by recursions and by
 blocks (long records), its transient step by step and by block maps (the cached prior's)."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -63,6 +64,8 @@ def _fast_and_filterpy(model_order, n, bandwidth_hz, dt, transient_path="steps")
         gains = kalman.prior_gains(model_order, dt, bandwidth_hz)
         if n <= len(gains.filter_gains):
             pytest.skip("the block maps serve records longer than the transient")
+        maps = kalman.transient_maps(gains.filter_gains, gains.smoother_gains, model.F)
+        gains = dataclasses.replace(gains, transient=maps)
     fast = rts_smooth(z[:, None], model, mean0, covariance0, gains=gains)[:, :, 0]
     reference = _filterpy(z, model, mean0[:, 0], covariance0)
     return fast, reference
@@ -394,7 +397,7 @@ def test_the_transient_maps_are_the_steps_composed(model_order, bandwidth_hz):
     gains = kalman.prior_gains(model_order, dt, bandwidth_hz)
     model = polynomial_model(model_order, dt, bandwidth_hz)
     m, F = model.states, model.F
-    maps = gains.transient
+    maps = kalman.transient_maps(gains.filter_gains, gains.smoother_gains, F)
     a = kalman.TRANSIENT_BLOCK  # the second block (the first when the transient is one)
     block = 1 if len(maps.forward_state) > 1 else 0
     a *= block
@@ -435,3 +438,28 @@ def test_the_transient_maps_are_the_steps_composed(model_order, bandwidth_hz):
             np.testing.assert_allclose(
                 maps.backward_data[block][i, :, j], through, rtol=0, atol=tolerance.max() * scale
             )
+
+
+def test_cached_gains_build_their_maps_at_the_second_use_on_few_channels():
+    """A setting called once steps through its transient; called again on a record (few
+    channels) it builds the block maps and keeps them; the ends check's many-channel probes
+    never build them. The estimates are the same to the smoother-against-filterpy tolerance
+    either way."""
+    dt, bandwidth_hz = 1e-3, 37.0
+    gains = kalman.prior_gains(3, dt, bandwidth_hz)
+    model = polynomial_model(3, dt, bandwidth_hz)
+    n = len(gains.filter_gains) + 500
+    z = np.sin(np.arange(n) * 0.01)[:, None] + 0.01 * np.random.default_rng(1).standard_normal(
+        (n, 1)
+    )
+    mean0, covariance0 = initial_state(z, model.per_step_coefficient)
+    wide = np.repeat(z, kalman.MAPS_MAX_CHANNELS + 1, axis=1)
+    rts_smooth(wide, model, *initial_state(wide, model.per_step_coefficient), gains=gains)
+    assert "maps" not in gains.prepared and "uses" not in gains.prepared
+    first = rts_smooth(z, model, mean0, covariance0, gains=gains)
+    assert gains.prepared == {"uses": 1}
+    second = rts_smooth(z, model, mean0, covariance0, gains=gains)
+    assert isinstance(gains.prepared["maps"], kalman.TransientMaps)
+    scale = np.max(np.abs(first), axis=0)
+    assert np.all(np.max(np.abs(second - first), axis=0) <= 1e-8 * scale)
+    assert kalman.covariance_recursion(model, covariance0, n).prepared is None
