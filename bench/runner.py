@@ -12,6 +12,8 @@ holds: the task scores the method (:meth:`bench.tasks.Task.score`).
 from __future__ import annotations
 
 import functools
+import hashlib
+import json
 import math
 import time
 import warnings
@@ -291,10 +293,19 @@ def report_task(task: Task, store: Store, out: Path) -> list[Path]:
 
 def report_items(study: ItemStudy, rows: dict[Item, list[dict]], out: Path) -> list[Path]:
     """The report of ``study`` from the rows of its items (:func:`run_items`), written under
-    ``out`` in its folder unless the last report there came from the same items by the same
-    code (:func:`bench.core.uptodate.report_once`: an item's stored rows never change)."""
+    ``out`` in its folder unless the last report there came from the same items' same rows by
+    the same code (:func:`bench.core.uptodate.report_once`; the rows' content is in the key,
+    so an item recomputed after its rows were deleted from the store is reported anew)."""
     keys = [study_key(study.record_name, item.name, item.setting) for item in rows]
-    key = uptodate.inputs_key({"report": study.name, "folder": study.folder, "items": keys})
+    content = json.dumps(list(rows.values()), sort_keys=True, default=str)
+    key = uptodate.inputs_key(
+        {
+            "report": study.name,
+            "folder": study.folder,
+            "items": keys,
+            "rows": hashlib.sha256(content.encode()).hexdigest(),
+        }
+    )
     directory = Path(out) / study.folder
     return uptodate.report_once(
         directory, key, lambda: study.write(rows, directory), part=study.name

@@ -225,6 +225,25 @@ def test_the_timing_study_runs_on_workers_and_on_dask_and_a_rerun_times_nothing(
     assert "| jacobi |" in (tmp_path / "serial" / "timing" / "throughput.md").read_text()
 
 
+def test_an_item_recomputed_with_other_rows_is_reported_anew(tmp_path):
+    """The same items' report is skipped on a rerun, but written again when an item's rows
+    differ (rows deleted from the store and recomputed, as timings are): the report's key
+    holds the rows' content, not only the items'."""
+    study = TimingStudy(largest_samples=10_000, ratios=False)
+    items = study.items(["finite_difference"], range(1))
+    rows, _ = runner.run_items(study, items, Store(tmp_path / "store"), jobs=1)
+    table = tmp_path / "timing" / "throughput.csv"
+    runner.report_items(study, rows, tmp_path)
+    first = table.stat().st_mtime_ns
+    runner.report_items(study, rows, tmp_path)
+    assert table.stat().st_mtime_ns == first  # the same rows: skipped
+    (item,) = rows
+    changed = {item: [{**row, "samples_per_s": 2 * row["samples_per_s"]} for row in rows[item]]}
+    runner.report_items(study, changed, tmp_path)
+    written = pd.read_csv(table)
+    assert written["samples_per_s"].tolist() == [r["samples_per_s"] for r in changed[item]]
+
+
 def test_report_renders_an_item_study_again_from_its_stored_items(tmp_path, monkeypatch):
     """``diffbench report`` of an item study reads its items at its defaults from the store:
     the same files again once they are all stored; a clear error naming the run otherwise."""
