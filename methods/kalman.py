@@ -191,21 +191,22 @@ class Gains:
     steady: SteadyState
     transient: TransientMaps | None = None  # the transient's block maps, when prepared
     modes: _SmootherModes | None = None  # the steady passes' modes, when prepared
-    # cached gains (prior_gains): their uses and their block maps, built at the second use
+    # cached gains (prior_gains): their block maps once a call has built them
     prepared: dict | None = dataclasses.field(default=None, compare=False, repr=False)
 
 
-MAPS_FROM_USE = 2
-"""The use of cached gains (on at most :data:`MAPS_MAX_CHANNELS` channels) at which their
-:class:`TransientMaps` are built: building them costs about as much as stepping through the
-transient once or twice (3 ms for the paper preset, 15 ms for a bandwidth of 5 Hz at 1 kHz),
-so a setting called once (a tuning's evaluation) keeps the steps, one called again (a
-user's records, a tuning over several seeds) has them."""
+MAPS_FROM_SAMPLES = 8192
+"""The shortest record whose transient runs by the block maps of cached gains (built at the
+first such call, kept with them). Building them costs about as much as stepping through the
+transient once or twice (3 ms for the paper preset, 15 ms for a bandwidth of 5 Hz at 1 kHz)
+and saves most of a step-through at every later call: worth it where a setting is called on
+long records, not for a tuning's evaluations on records of 1000-5000 samples (one call a
+setting). A rule on the call alone, never on what was called before, so a run's numbers do
+not depend on its order (serial, on workers, on Dask)."""
 
 MAPS_MAX_CHANNELS = 8
-"""The most channels a call may have to use the block maps: the ends check's probes run a
-hundred channels on short records, where one step of the recursion costs what a channel
-does and the maps' products cost a hundred times more."""
+"""The most channels a call may have to use the block maps: with a hundred channels one step
+of the recursion costs what a channel does and the maps' products cost a hundred times more."""
 
 TRANSIENT_BLOCK = 32
 """Steps of the transient each block map of :class:`TransientMaps` covers."""
@@ -687,7 +688,7 @@ def rts_smooth(
     transient = min(n, len(gains.filter_gains))
     # by block maps when they are prepared and the whole transient is run (a record longer
     # than it), else step by step
-    maps = _transient_maps_of(gains, F, z.shape[1]) if n > transient else None
+    maps = _transient_maps_of(gains, F, n, z.shape[1]) if n > transient else None
     blocked = maps is not None
     if blocked:
         filtered = _blocked_filter(z, maps, mean0)
@@ -776,21 +777,20 @@ def prior_gains(model_order: int, dt: float, bandwidth_hz: float) -> Gains:
     return dataclasses.replace(gains, modes=modes, prepared={})
 
 
-def _transient_maps_of(gains: Gains, F: np.ndarray, channels: int) -> TransientMaps | None:
+def _transient_maps_of(
+    gains: Gains, F: np.ndarray, samples: int, channels: int
+) -> TransientMaps | None:
     """The block maps a call runs the transient by: ``gains.transient`` when given, else
-    those of cached gains (``prepared``) from their :data:`MAPS_FROM_USE`-th use on at most
-    :data:`MAPS_MAX_CHANNELS` channels (built then, kept with them); None to step."""
+    those of cached gains (``prepared``) on a record of at least :data:`MAPS_FROM_SAMPLES`
+    samples and at most :data:`MAPS_MAX_CHANNELS` channels (built at the first such call,
+    kept with them); None to step."""
     if gains.transient is not None:
         return gains.transient
-    if gains.prepared is None or channels > MAPS_MAX_CHANNELS:
+    if gains.prepared is None or samples < MAPS_FROM_SAMPLES or channels > MAPS_MAX_CHANNELS:
         return None
-    maps = gains.prepared.get("maps")
-    if maps is None:
-        gains.prepared["uses"] = gains.prepared.get("uses", 0) + 1
-        if gains.prepared["uses"] >= MAPS_FROM_USE:
-            maps = transient_maps(gains.filter_gains, gains.smoother_gains, F)
-            gains.prepared["maps"] = maps
-    return maps
+    if "maps" not in gains.prepared:
+        gains.prepared["maps"] = transient_maps(gains.filter_gains, gains.smoother_gains, F)
+    return gains.prepared["maps"]
 
 
 @functools.lru_cache(maxsize=64)

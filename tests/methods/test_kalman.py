@@ -440,26 +440,27 @@ def test_the_transient_maps_are_the_steps_composed(model_order, bandwidth_hz):
             )
 
 
-def test_cached_gains_build_their_maps_at_the_second_use_on_few_channels():
-    """A setting called once steps through its transient; called again on a record (few
-    channels) it builds the block maps and keeps them; the ends check's many-channel probes
-    never build them. The estimates are the same to the smoother-against-filterpy tolerance
-    either way."""
+def test_cached_gains_run_their_maps_on_long_records_of_few_channels_whatever_came_before():
+    """Records of MAPS_FROM_SAMPLES samples or more on few channels run the transient by the
+    cached gains' block maps (built at the first, kept); shorter or many-channel records
+    step, however often the setting was called: a call's numbers depend on the call alone
+    (bit for bit the same before and after the maps exist)."""
     dt, bandwidth_hz = 1e-3, 37.0
     gains = kalman.prior_gains(3, dt, bandwidth_hz)
     model = polynomial_model(3, dt, bandwidth_hz)
-    n = len(gains.filter_gains) + 500
-    z = np.sin(np.arange(n) * 0.01)[:, None] + 0.01 * np.random.default_rng(1).standard_normal(
-        (n, 1)
-    )
-    mean0, covariance0 = initial_state(z, model.per_step_coefficient)
-    wide = np.repeat(z, kalman.MAPS_MAX_CHANNELS + 1, axis=1)
-    rts_smooth(wide, model, *initial_state(wide, model.per_step_coefficient), gains=gains)
-    assert "maps" not in gains.prepared and "uses" not in gains.prepared
-    first = rts_smooth(z, model, mean0, covariance0, gains=gains)
-    assert gains.prepared == {"uses": 1}
-    second = rts_smooth(z, model, mean0, covariance0, gains=gains)
+    rng = np.random.default_rng(1)
+
+    def smoothed(n, channels):
+        z = np.sin(np.arange(n) * 0.01)[:, None] + 0.01 * rng.standard_normal((n, channels))
+        mean0, covariance0 = initial_state(z, model.per_step_coefficient)
+        return lambda: rts_smooth(z, model, mean0, covariance0, gains=gains)
+
+    short, wide = smoothed(2000, 1), smoothed(kalman.MAPS_FROM_SAMPLES, 9)
+    before = short(), wide()
+    assert "maps" not in gains.prepared
+    long = smoothed(kalman.MAPS_FROM_SAMPLES, 1)
+    first = long()
     assert isinstance(gains.prepared["maps"], kalman.TransientMaps)
-    scale = np.max(np.abs(first), axis=0)
-    assert np.all(np.max(np.abs(second - first), axis=0) <= 1e-8 * scale)
-    assert kalman.covariance_recursion(model, covariance0, n).prepared is None
+    assert np.array_equal(long(), first)
+    assert np.array_equal(short(), before[0]) and np.array_equal(wide(), before[1])
+    assert kalman.covariance_recursion(model, gains.steady.covariance, 10).prepared is None
