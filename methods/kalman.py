@@ -195,18 +195,14 @@ class Gains:
     prepared: dict | None = dataclasses.field(default=None, compare=False, repr=False)
 
 
-MAPS_FROM_SAMPLES = 8192
-"""The shortest record whose transient runs by the block maps of cached gains (built at the
-first such call, kept with them). Building them costs about as much as stepping through the
-transient once or twice (3 ms for the paper preset, 15 ms for a bandwidth of 5 Hz at 1 kHz)
-and saves most of a step-through at every later call: worth it where a setting is called on
-long records, not for a tuning's evaluations on records of 1000-5000 samples (one call a
-setting). A rule on the call alone, never on what was called before, so a run's numbers do
-not depend on its order (serial, on workers, on Dask)."""
-
 MAPS_MAX_CHANNELS = 8
-"""The most channels a call may have to use the block maps: with a hundred channels one step
-of the recursion costs what a channel does and the maps' products cost a hundred times more."""
+"""The most channels a call may have to run the transient by the block maps of cached gains
+(built at the first such call, kept with them): with a hundred channels (the ends check's
+probes) one step of the recursion costs what a channel does and the maps' products cost a
+hundred times more. Building the maps costs less than stepping through the transient once
+(0.5 ms against 1.8 ms for the paper preset), so even a setting called once gains. A rule on
+the call alone, never on what was called before, so that a run's numbers do not depend on
+its order (serial, on workers, on Dask)."""
 
 TRANSIENT_BLOCK = 32
 """Steps of the transient each block map of :class:`TransientMaps` covers."""
@@ -244,35 +240,50 @@ class TransientMaps:
 
 def transient_maps(filter_gains: np.ndarray, smoother_gains: np.ndarray, F: np.ndarray):
     """:class:`TransientMaps` of the transient gains K_k (T, m) and C_k (T, m, m) of the model
-    with transition ``F``: one step at a time, each map from the one before (the
-    recursions of :class:`TransientMaps`)."""
+    with transition ``F``, by the recursions of :class:`TransientMaps` run on every block at
+    once (a step of all blocks one batched product: B steps in all, not T). Forward, each
+    block's step i holds :math:`[\\Phi_i \\mid \\Psi_{i\\cdot}]` from :math:`[I \\mid 0]`;
+    backward :math:`[\\Gamma_i \\mid \\Omega_{i\\cdot}]` from :math:`[I \\mid 0]` at the block's
+    end. The last block is padded to B steps with A = I, K = 0 (after its end, unused) and
+    C = I, I - CF = 0 (before its backward start: they leave :math:`[I \\mid 0]` as it is)."""
     m, steps = F.shape[0], filter_gains.shape[0]
-    transitions = F[None] - filter_gains[:, :, None] * F[0][None, None, :]  # A_k
-    to_smoothed = np.eye(m)[None] - smoother_gains @ F  # I - C_k F
+    size = TRANSIENT_BLOCK
+    blocks = -(-steps // size)
+    padded = blocks * size
+    transitions = np.broadcast_to(np.eye(m), (padded, m, m)).copy()
+    transitions[:steps] = F[None] - filter_gains[:, :, None] * F[0][None, None, :]  # A_k
+    gains = np.zeros((padded, m))
+    gains[:steps] = filter_gains
+    smoothers = np.broadcast_to(np.eye(m), (padded, m, m)).copy()
+    smoothers[:steps] = smoother_gains
+    to_smoothed = np.zeros((padded, m, m))
+    to_smoothed[:steps] = np.eye(m)[None] - smoother_gains @ F  # I - C_k F
+    transitions = transitions.reshape(blocks, size, m, m)
+    gains = gains.reshape(blocks, size, m)
+    smoothers = smoothers.reshape(blocks, size, m, m)
+    to_smoothed = to_smoothed.reshape(blocks, size, m, m)
+    forward = np.empty((blocks, size, m, m + size))
+    current = np.zeros((blocks, m, m + size))
+    current[:, :, :m] = np.eye(m)
+    for i in range(size):
+        current = transitions[:, i] @ current
+        current[:, :, m + i] += gains[:, i]
+        forward[:, i] = current
+    backward = np.empty((blocks, size, m, m + size * m))
+    current = np.zeros((blocks, m, m + size * m))
+    current[:, :, :m] = np.eye(m)
+    for i in range(size - 1, -1, -1):
+        current = smoothers[:, i] @ current
+        current[:, :, m + i * m : m + (i + 1) * m] += to_smoothed[:, i]
+        backward[:, i] = current
     maps = TransientMaps([], [], [], [])
-    for a in range(0, steps, TRANSIENT_BLOCK):
-        size = min(TRANSIENT_BLOCK, steps - a)
-        state = np.empty((size, m, m))
-        data = np.zeros((size, m, size))
-        state[0], data[0, :, 0] = transitions[a], filter_gains[a]
-        for i in range(1, size):
-            state[i] = transitions[a + i] @ state[i - 1]
-            data[i, :, :i] = transitions[a + i] @ data[i - 1, :, :i]
-            data[i, :, i] = filter_gains[a + i]
-        back_state = np.empty((size, m, m))
-        back_data = np.zeros((size, m, size, m))
-        last = a + size - 1
-        back_state[-1], back_data[-1, :, -1] = smoother_gains[last], to_smoothed[last]
-        for i in range(size - 2, -1, -1):
-            gain = smoother_gains[a + i]
-            back_state[i] = gain @ back_state[i + 1]
-            following = back_data[i + 1, :, i + 1 :].reshape(m, -1)
-            back_data[i, :, i + 1 :] = (gain @ following).reshape(m, -1, m)
-            back_data[i, :, i] = to_smoothed[a + i]
-        maps.forward_state.append(state)
-        maps.forward_data.append(data)
-        maps.backward_state.append(back_state)
-        maps.backward_data.append(back_data)
+    for block in range(blocks):
+        length = min(size, steps - block * size)
+        maps.forward_state.append(forward[block, :length, :, :m].copy())
+        maps.forward_data.append(forward[block, :length, :, m : m + length].copy())
+        maps.backward_state.append(backward[block, :length, :, :m].copy())
+        columns = backward[block, :length, :, m : m + length * m]
+        maps.backward_data.append(columns.reshape(length, m, length, m).copy())
     return maps
 
 
@@ -688,7 +699,7 @@ def rts_smooth(
     transient = min(n, len(gains.filter_gains))
     # by block maps when they are prepared and the whole transient is run (a record longer
     # than it), else step by step
-    maps = _transient_maps_of(gains, F, n, z.shape[1]) if n > transient else None
+    maps = _transient_maps_of(gains, F, z.shape[1]) if n > transient else None
     blocked = maps is not None
     if blocked:
         filtered = _blocked_filter(z, maps, mean0)
@@ -777,16 +788,13 @@ def prior_gains(model_order: int, dt: float, bandwidth_hz: float) -> Gains:
     return dataclasses.replace(gains, modes=modes, prepared={})
 
 
-def _transient_maps_of(
-    gains: Gains, F: np.ndarray, samples: int, channels: int
-) -> TransientMaps | None:
+def _transient_maps_of(gains: Gains, F: np.ndarray, channels: int) -> TransientMaps | None:
     """The block maps a call runs the transient by: ``gains.transient`` when given, else
-    those of cached gains (``prepared``) on a record of at least :data:`MAPS_FROM_SAMPLES`
-    samples and at most :data:`MAPS_MAX_CHANNELS` channels (built at the first such call,
-    kept with them); None to step."""
+    those of cached gains (``prepared``) on at most :data:`MAPS_MAX_CHANNELS` channels (built
+    at the first such call, kept with them); None to step."""
     if gains.transient is not None:
         return gains.transient
-    if gains.prepared is None or samples < MAPS_FROM_SAMPLES or channels > MAPS_MAX_CHANNELS:
+    if gains.prepared is None or channels > MAPS_MAX_CHANNELS:
         return None
     if "maps" not in gains.prepared:
         gains.prepared["maps"] = transient_maps(gains.filter_gains, gains.smoother_gains, F)

@@ -440,27 +440,27 @@ def test_the_transient_maps_are_the_steps_composed(model_order, bandwidth_hz):
             )
 
 
-def test_cached_gains_run_their_maps_on_long_records_of_few_channels_whatever_came_before():
-    """Records of MAPS_FROM_SAMPLES samples or more on few channels run the transient by the
-    cached gains' block maps (built at the first, kept); shorter or many-channel records
-    step, however often the setting was called: a call's numbers depend on the call alone
-    (bit for bit the same before and after the maps exist)."""
+def test_cached_gains_run_their_maps_on_few_channels_whatever_came_before():
+    """Records of a few channels, longer than the transient, run it by the cached gains'
+    block maps (built at the first, kept); many-channel records step, however often the
+    setting was called: a call's numbers depend on the call alone (bit for bit the same
+    before and after the maps exist)."""
     dt, bandwidth_hz = 1e-3, 37.0
     gains = kalman.prior_gains(3, dt, bandwidth_hz)
     model = polynomial_model(3, dt, bandwidth_hz)
     rng = np.random.default_rng(1)
+    n = len(gains.filter_gains) + 300
 
-    def smoothed(n, channels):
+    def smoothed(channels):
         z = np.sin(np.arange(n) * 0.01)[:, None] + 0.01 * rng.standard_normal((n, channels))
         mean0, covariance0 = initial_state(z, model.per_step_coefficient)
         return lambda: rts_smooth(z, model, mean0, covariance0, gains=gains)
 
-    short, wide = smoothed(2000, 1), smoothed(kalman.MAPS_FROM_SAMPLES, 9)
-    before = short(), wide()
+    wide = smoothed(kalman.MAPS_MAX_CHANNELS + 1)
+    before = wide()
     assert "maps" not in gains.prepared
-    long = smoothed(kalman.MAPS_FROM_SAMPLES, 1)
-    first = long()
+    narrow = smoothed(kalman.MAPS_MAX_CHANNELS)
+    first = narrow()
     assert isinstance(gains.prepared["maps"], kalman.TransientMaps)
-    assert np.array_equal(long(), first)
-    assert np.array_equal(short(), before[0]) and np.array_equal(wide(), before[1])
+    assert np.array_equal(narrow(), first) and np.array_equal(wide(), before)
     assert kalman.covariance_recursion(model, gains.steady.covariance, 10).prepared is None
