@@ -191,18 +191,23 @@ class Gains:
     steady: SteadyState
     transient: TransientMaps | None = None  # the transient's block maps, when prepared
     modes: _SmootherModes | None = None  # the steady passes' modes, when prepared
-    # cached gains (prior_gains): their block maps once a call has built them
-    prepared: dict | None = dataclasses.field(default=None, compare=False, repr=False)
+    # the key of prior_gains' cache (model order, step, bandwidth): cached gains
+    key: tuple | None = None
 
 
 MAPS_MAX_CHANNELS = 8
 """The most channels a call may have to run the transient by the block maps of cached gains
-(built at the first such call, kept with them): with a hundred channels (the ends check's
-probes) one step of the recursion costs what a channel does and the maps' products cost a
-hundred times more. Building the maps costs less than stepping through the transient once
-(0.5 ms against 1.8 ms for the paper preset), so even a setting called once gains. A rule on
-the call alone, never on what was called before, so that a run's numbers do not depend on
+(:func:`_cached_maps`): with a hundred channels (the ends check's probes) one step of the
+recursion costs what a channel does and the maps' products cost a hundred times more. A rule
+on the call alone, never on what was called before, so that a run's numbers do not depend on
 its order (serial, on workers, on Dask)."""
+
+MAPS_MAX_STEPS = 512
+"""The longest transient run by block maps. The maps hold about 34 times the gains (the
+backward ones a (B m)² matrix a block): 2 MB for a transient of 512 steps at order 3, but
+94 MB at order 5 and 1 Hz (8276 steps), where building them also costs twice stepping (109
+ms against 56 ms on 9301 samples). Up to 512 steps building costs less than stepping once
+(0.5 ms against 1.8 ms for the paper preset's 262), so even a setting called once gains."""
 
 TRANSIENT_BLOCK = 32
 """Steps of the transient each block map of :class:`TransientMaps` covers."""
@@ -686,8 +691,10 @@ def rts_smooth(
     ``rts_smoother`` (predict then update at every sample) for every channel at once.
 
     The covariances do not depend on the data, so they are run once until the steady state;
-    the transient is stepped explicitly and the steady remainder, a linear time-invariant
-    recursion forward and one backward, is run mode by mode (:func:`_steady_passes`), or from
+    the transient is stepped explicitly, or (``gains.transient``, or cached gains on a call
+    of few channels: :func:`_cached_maps`) by block maps, and the steady remainder, a linear
+    time-invariant recursion forward and one backward, is run mode by mode
+    (:func:`_steady_passes`), or from
     :data:`BLOCKED_FROM` steady samples on by blocks (:func:`_blocked_steady_passes`). ``z``
     has shape (n, channels); returns the smoothed states (n, m, channels), or only the state
     ``components`` given (n, len(components), channels). ``gains``: the recursion from
@@ -699,7 +706,9 @@ def rts_smooth(
     transient = min(n, len(gains.filter_gains))
     # by block maps when they are prepared and the whole transient is run (a record longer
     # than it), else step by step
-    maps = _transient_maps_of(gains, F, z.shape[1]) if n > transient else None
+    maps = gains.transient
+    if maps is None and gains.key is not None and n > transient:
+        maps = _cached_maps(*gains.key, z.shape[1])
     blocked = maps is not None
     if blocked:
         filtered = _blocked_filter(z, maps, mean0)
@@ -785,20 +794,29 @@ def prior_gains(model_order: int, dt: float, bandwidth_hz: float) -> Gains:
     _, covariance0 = initial_state(np.zeros((4 * model.states, 1)), model.per_step_coefficient)
     gains = covariance_recursion(model, covariance0, 10**6)
     modes = _smoother_modes(gains.steady, model.F)
-    return dataclasses.replace(gains, modes=modes, prepared={})
+    return dataclasses.replace(gains, modes=modes, key=(model_order, dt, bandwidth_hz))
 
 
-def _transient_maps_of(gains: Gains, F: np.ndarray, channels: int) -> TransientMaps | None:
-    """The block maps a call runs the transient by: ``gains.transient`` when given, else
-    those of cached gains (``prepared``) on at most :data:`MAPS_MAX_CHANNELS` channels (built
-    at the first such call, kept with them); None to step."""
-    if gains.transient is not None:
-        return gains.transient
-    if gains.prepared is None or channels > MAPS_MAX_CHANNELS:
+def _cached_maps(
+    model_order: int, dt: float, bandwidth_hz: float, channels: int
+) -> TransientMaps | None:
+    """The block maps of :func:`prior_gains`' gains for a call on ``channels`` channels: None
+    (step) beyond :data:`MAPS_MAX_CHANNELS` channels or :data:`MAPS_MAX_STEPS` steps of
+    transient, else built once and kept (:func:`_maps_of_prior`)."""
+    if channels > MAPS_MAX_CHANNELS:
         return None
-    if "maps" not in gains.prepared:
-        gains.prepared["maps"] = transient_maps(gains.filter_gains, gains.smoother_gains, F)
-    return gains.prepared["maps"]
+    if len(prior_gains(model_order, dt, bandwidth_hz).filter_gains) > MAPS_MAX_STEPS:
+        return None
+    return _maps_of_prior(model_order, dt, bandwidth_hz)
+
+
+@functools.lru_cache(maxsize=16)
+def _maps_of_prior(model_order: int, dt: float, bandwidth_hz: float) -> TransientMaps:
+    """:func:`transient_maps` of :func:`prior_gains`' gains; cached apart from them, for the
+    last 16 settings (at most a few MB each, :data:`MAPS_MAX_STEPS`)."""
+    gains = prior_gains(model_order, dt, bandwidth_hz)
+    model = _cached_model(model_order, dt, bandwidth_hz)
+    return transient_maps(gains.filter_gains, gains.smoother_gains, model.F)
 
 
 @functools.lru_cache(maxsize=64)

@@ -219,8 +219,9 @@ class PolynomialSystem:
         self, noise_level: float, seed: int, every: int = 1, starts: int = 1
     ) -> tuple[Measurement, ...]:
         """A measurement of ``starts`` trajectories, from ``initial`` and the first
-        ``starts - 1`` of :attr:`starts`, each over ``duration_s / starts`` (the samples of
-        one trajectory shared among them), every ``every``-th sample of each kept.
+        ``starts - 1`` of :attr:`starts`, each over ``duration_s / starts`` (one trajectory's
+        duration shared among them: its samples, and one more for each further start), every
+        ``every``-th sample of each kept.
 
         Each state's noise has ``noise_level`` times its standard deviation over every
         sample kept (all trajectories together), drawn with

@@ -1,8 +1,8 @@
 """SINDy discovery: which differentiator lets sparse regression find the right equations.
 
 Each system of :mod:`diffbench.signals.dynamics` is measured at a noise level (a fraction of
-each state's standard deviation), from one initial condition or from several with the same
-number of samples shared among them (:data:`STARTS`), and given to pysindy's SINDy with the
+each state's standard deviation), from one initial condition or from several sharing one
+trajectory's duration (:data:`STARTS`), and given to pysindy's SINDy with the
 system's polynomial library and sequentially thresholded least squares (STLSQ at the
 system's stated threshold, without ridge: :func:`_optimizer`), so that only the derivative
 changes from one entry to the next:

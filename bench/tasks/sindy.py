@@ -58,6 +58,10 @@ class SindyStudy(ItemStudy):
     default_seeds = 5
 
     def __post_init__(self) -> None:
+        if not self.starts or any(
+            isinstance(k, bool) or not isinstance(k, int) or k < 1 for k in self.starts
+        ):
+            raise ValueError(f"`starts` must be whole numbers >= 1, got {self.starts!r}")
         for system in self.systems:
             found = get_system(system)  # ValueError naming the close ones
             if max(self.starts) > found.max_starts:

@@ -264,6 +264,9 @@ def test_three_starts_are_items_of_their_own_and_one_start_keeps_its_keys():
     assert all(row["exact_support"] == 1.0 for row in rows)
     with pytest.raises(ValueError, match="`starts` must be at most 3 for duffing"):
         SindyStudy(systems=("duffing",), starts=(1, 4))
+    for bad in ((), (0, 1), (1.0,)):
+        with pytest.raises(ValueError, match="`starts` must be whole numbers >= 1"):
+            SindyStudy(systems=("duffing",), starts=bad)
 
 
 def test_the_headline_has_a_row_per_number_of_starts_and_old_rows_count_as_one():

@@ -398,9 +398,13 @@ def test_the_transient_maps_are_the_steps_composed(model_order, bandwidth_hz):
     model = polynomial_model(model_order, dt, bandwidth_hz)
     m, F = model.states, model.F
     maps = kalman.transient_maps(gains.filter_gains, gains.smoother_gains, F)
-    a = kalman.TRANSIENT_BLOCK  # the second block (the first when the transient is one)
-    block = 1 if len(maps.forward_state) > 1 else 0
-    a *= block
+    for block in sorted({min(1, len(maps.forward_state) - 1), len(maps.forward_state) - 1}):
+        _check_block(gains, F, m, maps, block)  # the second (a full one) and the last
+
+
+def _check_block(gains, F, m, maps, block):
+    """One block of :func:`kalman.transient_maps` against its steps (see the test above)."""
+    a = kalman.TRANSIENT_BLOCK * block
     size = maps.forward_state[block].shape[0]
     transitions = [F - np.outer(gains.filter_gains[a + i], F[0]) for i in range(size)]
     smoother = [gains.smoother_gains[a + i] for i in range(size)]
@@ -440,13 +444,15 @@ def test_the_transient_maps_are_the_steps_composed(model_order, bandwidth_hz):
             )
 
 
-def test_cached_gains_run_their_maps_on_few_channels_whatever_came_before():
-    """Records of a few channels, longer than the transient, run it by the cached gains'
-    block maps (built at the first, kept); many-channel records step, however often the
-    setting was called: a call's numbers depend on the call alone (bit for bit the same
-    before and after the maps exist)."""
+def test_cached_gains_run_their_maps_on_few_channels_and_short_transients_only():
+    """Records of a few channels, longer than a transient of at most MAPS_MAX_STEPS steps, run
+    it by the cached block maps; many channels or a longer transient step: a rule on the call
+    alone, so the same call gives the same bits before and after the maps exist, and the
+    maps' memory stays bounded (a transient of 8276 steps at order 5 would hold 94 MB)."""
     dt, bandwidth_hz = 1e-3, 37.0
+    kalman._maps_of_prior.cache_clear()
     gains = kalman.prior_gains(3, dt, bandwidth_hz)
+    assert len(gains.filter_gains) <= kalman.MAPS_MAX_STEPS
     model = polynomial_model(3, dt, bandwidth_hz)
     rng = np.random.default_rng(1)
     n = len(gains.filter_gains) + 300
@@ -458,9 +464,12 @@ def test_cached_gains_run_their_maps_on_few_channels_whatever_came_before():
 
     wide = smoothed(kalman.MAPS_MAX_CHANNELS + 1)
     before = wide()
-    assert "maps" not in gains.prepared
+    assert kalman._maps_of_prior.cache_info().currsize == 0
     narrow = smoothed(kalman.MAPS_MAX_CHANNELS)
     first = narrow()
-    assert isinstance(gains.prepared["maps"], kalman.TransientMaps)
+    assert kalman._maps_of_prior.cache_info().currsize == 1
     assert np.array_equal(narrow(), first) and np.array_equal(wide(), before)
-    assert kalman.covariance_recursion(model, gains.steady.covariance, 10).prepared is None
+    long = kalman.prior_gains(5, dt, 2.0)  # a transient of thousands of steps
+    assert len(long.filter_gains) > kalman.MAPS_MAX_STEPS
+    assert kalman._cached_maps(5, dt, 2.0, 1) is None
+    assert kalman.covariance_recursion(model, gains.steady.covariance, 10).key is None

@@ -107,6 +107,11 @@ def test_a_measurement_of_several_starts_shares_the_samples_and_one_start_is_mea
     taken over all of their samples and drawn with the seed's one generator in order."""
     system = get_system(name)
     (one,) = system.measure_runs(0.05, 7)
+    # the one-start measurement as written before there were several (the stored results'):
+    # the trajectory plus the level times its spread times the seed's normal draws
+    truth = system.trajectory()
+    noise = 0.05 * truth.x.std(axis=0) * np.random.default_rng(7).standard_normal(truth.x.shape)
+    assert np.array_equal(one.x, truth.x + noise)
     assert np.array_equal(one.x, system.measure(0.05, 7).x)
     runs = system.measure_runs(0.05, 7, every=5, starts=3)
     assert len(runs) == 3 and system.max_starts == 3
