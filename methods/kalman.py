@@ -708,7 +708,7 @@ def rts_smooth(
     # than it), else step by step
     maps = gains.transient
     if maps is None and gains.key is not None and n > transient:
-        maps = _cached_maps(*gains.key, z.shape[1])
+        maps = _cached_maps(gains, z.shape[1])
     blocked = maps is not None
     if blocked:
         filtered = _blocked_filter(z, maps, mean0)
@@ -797,17 +797,14 @@ def prior_gains(model_order: int, dt: float, bandwidth_hz: float) -> Gains:
     return dataclasses.replace(gains, modes=modes, key=(model_order, dt, bandwidth_hz))
 
 
-def _cached_maps(
-    model_order: int, dt: float, bandwidth_hz: float, channels: int
-) -> TransientMaps | None:
-    """The block maps of :func:`prior_gains`' gains for a call on ``channels`` channels: None
-    (step) beyond :data:`MAPS_MAX_CHANNELS` channels or :data:`MAPS_MAX_STEPS` steps of
-    transient, else built once and kept (:func:`_maps_of_prior`)."""
-    if channels > MAPS_MAX_CHANNELS:
+def _cached_maps(gains: Gains, channels: int) -> TransientMaps | None:
+    """The block maps of the cached ``gains`` (:func:`prior_gains`', whose ``key`` they hold)
+    for a call on ``channels`` channels: None (step) beyond :data:`MAPS_MAX_CHANNELS` channels
+    or :data:`MAPS_MAX_STEPS` steps of transient, else built once and kept
+    (:func:`_maps_of_prior`)."""
+    if channels > MAPS_MAX_CHANNELS or len(gains.filter_gains) > MAPS_MAX_STEPS:
         return None
-    if len(prior_gains(model_order, dt, bandwidth_hz).filter_gains) > MAPS_MAX_STEPS:
-        return None
-    return _maps_of_prior(model_order, dt, bandwidth_hz)
+    return _maps_of_prior(*gains.key)
 
 
 @functools.lru_cache(maxsize=16)

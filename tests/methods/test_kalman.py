@@ -471,5 +471,5 @@ def test_cached_gains_run_their_maps_on_few_channels_and_short_transients_only()
     assert np.array_equal(narrow(), first) and np.array_equal(wide(), before)
     long = kalman.prior_gains(5, dt, 2.0)  # a transient of thousands of steps
     assert len(long.filter_gains) > kalman.MAPS_MAX_STEPS
-    assert kalman._cached_maps(5, dt, 2.0, 1) is None
+    assert kalman._cached_maps(long, 1) is None
     assert kalman.covariance_recursion(model, gains.steady.covariance, 10).key is None
