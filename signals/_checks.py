@@ -51,6 +51,16 @@ def check_real_tuple(name: str, values: object, *, gt: float | None = None) -> t
     return tuple(check_real(f"{name}[{i}]", item, gt=gt) for i, item in enumerate(items))
 
 
+def check_whole(name: str, value: object, *, ge: int) -> int:
+    """Return ``value`` if it is a whole number (Python or NumPy integer, not a bool) of at
+    least ``ge``, else raise ``ValueError`` naming ``name``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
+        raise ValueError(f"`{name}` must be a whole number >= {ge}, got {value!r}")
+    if value < ge:
+        raise ValueError(f"`{name}` must be a whole number >= {ge}, got {value!r}")
+    return int(value)
+
+
 def check_bool(name: str, value: object) -> bool:
     """Return ``value`` if it is a bool (Python or NumPy), else raise ``ValueError``."""
     if not isinstance(value, (bool, np.bool_)):

@@ -30,7 +30,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from diffbench.signals._checks import check_real, check_seed, read_only, unknown_choice_hint
+from diffbench.signals._checks import (
+    check_real,
+    check_seed,
+    check_whole,
+    read_only,
+    unknown_choice_hint,
+)
 
 TOLERANCE = 1e-12
 """Relative and absolute tolerance of the integration (DOP853)."""
@@ -235,11 +241,8 @@ class PolynomialSystem:
             >= 1, or ``starts`` outside 1..:attr:`max_starts`.
         """
         check_real("noise_level", noise_level, ge=0)
-        if isinstance(every, bool) or not isinstance(every, int) or every < 1:
-            raise ValueError(f"`every` must be a whole number >= 1, got {every!r}")
-        if isinstance(starts, bool) or not isinstance(starts, int):
-            raise ValueError(f"`starts` must be a whole number, got {starts!r}")
-        if not 1 <= starts <= self.max_starts:
+        every, starts = check_whole("every", every, ge=1), check_whole("starts", starts, ge=1)
+        if starts > self.max_starts:
             raise ValueError(
                 f"`starts` must be in 1..{self.max_starts} ({self.name} declares "
                 f"{self.max_starts} initial conditions), got {starts}"

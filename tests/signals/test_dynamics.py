@@ -130,6 +130,10 @@ def test_a_measurement_of_several_starts_shares_the_samples_and_one_start_is_mea
         system.measure_runs(0.05, 7, starts=4)
     with pytest.raises(ValueError, match="`starts` must be a whole number"):
         system.measure_runs(0.05, 7, starts=2.0)
+    with pytest.raises(ValueError, match="`starts` must be a whole number >= 1, got 0"):
+        system.measure_runs(0.05, 7, starts=0)
+    numpy_ints = system.measure_runs(0.05, 7, every=np.int64(5), starts=np.int64(3))
+    assert all(np.array_equal(a.x, b.x) for a, b in zip(numpy_ints, runs, strict=True))
 
 
 def test_a_system_refuses_a_measured_start_that_is_also_held_out():
