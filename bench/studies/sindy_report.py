@@ -72,11 +72,9 @@ def _contenders(part: pd.DataFrame) -> pd.DataFrame:
 
 def summary_table(entries: pd.DataFrame) -> pd.DataFrame:
     """Per system, record (sampling step and starts) and noise level: the entry with the least
-    mean coefficient
-    error, its
-    margin over the next (their ratio), the weak form's error (the better of its entries)
-    and the winner's ratio to it,
-    and the best pointwise differentiator's ratio to the weak form (< 1: it beats it)."""
+    mean coefficient error, its margin over the next (their ratio), the weak form's error
+    (the better of its entries), and the best pointwise differentiator's ratio to it (< 1:
+    it beats the weak form)."""
     rows = []
     groups = entries.groupby(["system", "step_s", "starts", "level"], sort=False)
     for (system, step_s, starts, level), part in groups:
