@@ -83,7 +83,7 @@ def test_the_three_closest_at_most_each_once():
 def test_a_mistyped_name_in_the_api_is_a_value_error_naming_the_close_one(call, message):
     with pytest.raises(ValueError, match=message) as error:
         call()
-    assert len(str(error.value)) < 200  # not the whole registry
+    assert len(str(error.value)) < 250  # not the whole registry (its names alone: 470+ characters)
 
 
 def test_a_name_like_no_other_still_lists_them_all():

@@ -128,12 +128,18 @@ def test_jacobi_shifted_ends_are_numpys_weighted_fit_at_each_sample(kappa, mu, q
         )
 
 
-@pytest.mark.parametrize(("kappa", "mu", "q", "end_degree"), [(2.0, 5.0, 3, 2), (6.0, 6.0, 2, 3)])
-def test_jacobi_boundary_ends_are_numpys_weighted_fit_at_each_sample(kappa, mu, q, end_degree):
+@pytest.mark.parametrize(
+    ("kappa", "mu", "q", "end_degree", "end_exponent"),
+    [(2.0, 5.0, 3, 2, 0.0), (6.0, 6.0, 2, 3, 0.0), (1.0, 1.0, 6, 4, 3.0)],
+)
+def test_jacobi_boundary_ends_are_numpys_weighted_fit_at_each_sample(
+    kappa, mu, q, end_degree, end_exponent
+):
     """The first and last M samples of ``ends="boundary"``: the n-th derivative, at the
     sample, of the polynomial numpy fits to the samples within M steps of it that the record
-    holds, weighted by (1-τ)^μ (1+τ)^κ of their offset τ = (t - t_k)/(M dt), of the degree
-    rising linearly from ``end_degree`` at the edge to the interior's n+q."""
+    holds, weighted by (1-τ)^(μ+s) (1+τ)^(κ+s) of their offset τ = (t - t_k)/(M dt) (s:
+    ``end_exponent``), of the degree rising linearly from ``end_degree`` at the edge to the
+    interior's n+q."""
     method = methods.get(
         "jacobi",
         kappa=kappa,
@@ -142,6 +148,7 @@ def test_jacobi_boundary_ends_are_numpys_weighted_fit_at_each_sample(kappa, mu, 
         window_s=0.04,
         accel_window_s=0.04,
         end_degree=end_degree,
+        end_exponent=end_exponent,
     )
     n, m = 300, 20
     x = np.random.default_rng(3).standard_normal(n)
@@ -156,7 +163,7 @@ def test_jacobi_boundary_ends_are_numpys_weighted_fit_at_each_sample(kappa, mu, 
             for sample in (k, n - 1 - k):
                 near = np.abs(np.arange(n) - sample) <= m
                 tau = np.clip((t[near] - t[sample]) / (m * DT), -1.0, 1.0)
-                weights = (1 - tau) ** mu * (1 + tau) ** kappa
+                weights = (1 - tau) ** (mu + end_exponent) * (1 + tau) ** (kappa + end_exponent)
                 fit = np.polynomial.Polynomial.fit(t[near], x[near], degree, w=np.sqrt(weights))
                 expected = fit.deriv(order)(t[sample])
                 assert abs(values[order][sample] - expected) <= 1e-8 * scale, (order, sample)

@@ -28,17 +28,20 @@ def jittered(n: int = 300, seed: int = 45) -> np.ndarray:
     return t
 
 
-def window_fit(method, times, k, order, degree, centre_s=None):
+def window_fit(method, times, k, order, degree, centre_s=None, extra=0.0):
     """The fit at sample ``k`` by numpy: the samples within the order's half window of
-    ``centre_s`` (default: t_k), weights (1 - τ)^μ (1 + τ)^κ times the sample spans, the
-    polynomial of ``degree`` differentiated ``order`` times at t_k. Returns the estimate's
+    ``centre_s`` (default: t_k), weights (1 - τ)^(μ+s) (1 + τ)^(κ+s) times the sample spans
+    (s = ``extra``, the boundary fits' ``end_exponent``), the polynomial of ``degree``
+    differentiated ``order`` times at t_k. Returns the estimate's
     sample weights (as a function of x) and the rounding bound's factor (condition and the
     sum of the weights' magnitudes)."""
     reach = method._window(order)[1] / 2
     centre = times[k] if centre_s is None else centre_s
     inside = np.abs(times - centre) <= reach * (1 + 1e-9)
     offsets = times[inside] - centre
-    weight = method._weight(offsets / reach) * sample_spans(times)[inside]
+    tau = np.clip(offsets / reach, -1.0, 1.0)
+    exponents = max(method.mu, 0.0) + extra, max(method.kappa, 0.0) + extra
+    weight = (1 - tau) ** exponents[0] * (1 + tau) ** exponents[1] * sample_spans(times)[inside]
     basis = legendre.legvander(offsets / reach, degree) * np.sqrt(weight)[:, None]
     condition = np.linalg.cond(basis)
     rows = legendre.legder(np.eye(degree + 1), order) if order else np.eye(degree + 1)
@@ -53,45 +56,53 @@ def window_fit(method, times, k, order, degree, centre_s=None):
 
 
 def fit_of(method, times, k, order):
-    """The degree and window centre (None: the sample's own time) of the fit at sample ``k``:
-    the interior's n + q; near an end, the boundary fit's degree at its distance to the end,
-    or the shifted window's centre half a window inside the record."""
+    """The degree, window centre (None: the sample's own time) and extra weight exponent of
+    the fit at sample ``k``: the interior's n + q; near an end, the boundary fit's degree at
+    its distance to the end with ``end_exponent``, or the shifted window's centre half a
+    window inside the record."""
     reach = method._window(order)[1] / 2
     m = round(reach / DT)
     distance = min(times[k] - times[0], times[-1] - times[k])
     if distance >= reach * (1 - 1e-9):
-        return method._fit_degree(order), None
+        return method._fit_degree(order), None, 0.0
     if method.ends == "boundary":
         step = min(int(np.floor(distance / reach * m + 1e-9)), m - 1)
-        return int(method._boundary_degrees(order, m)[step]), None
-    return method._fit_degree(order), float(np.clip(times[k], times[0] + reach, times[-1] - reach))
+        return int(method._boundary_degrees(order, m)[step]), None, method.end_exponent
+    centre = float(np.clip(times[k], times[0] + reach, times[-1] - reach))
+    return method._fit_degree(order), centre, 0.0
 
 
-@pytest.mark.parametrize("ends", ["boundary", "shifted"])
-def test_each_sample_is_the_weighted_fit_on_its_window(ends):
+@pytest.mark.parametrize(
+    ("ends", "end_exponent"), [("boundary", 0.0), ("boundary", 2.5), ("shifted", 0.0)]
+)
+def test_each_sample_is_the_weighted_fit_on_its_window(ends, end_exponent):
     """At jittered stamps, interior and end samples against numpy's weighted fit (the
     boundary fits at the degree of their distance to the end, the shifted ones centred half a
     window inside the record)."""
     t = jittered()
     x = np.sin(2 * np.pi * 7 * t) + 0.4 * np.cos(2 * np.pi * 17 * t + 0.3)
-    method = methods.get("jacobi", **SETTING, ends=ends, end_degree=3)
+    method = methods.get("jacobi", **SETTING, ends=ends, end_degree=3, end_exponent=end_exponent)
     values, _ = method._estimate_at(x, t, (0, 1, 2))
     for order in (0, 1, 2):
         m = round(method._window(order)[1] / 2 / DT)
         for k in (0, 3, m // 2, 150, t.size - 2, t.size - 1):
-            degree, centre = fit_of(method, t, k, order)
-            estimate, condition, gain = window_fit(method, t, k, order, degree, centre)
+            degree, centre, extra = fit_of(method, t, k, order)
+            estimate, condition, gain = window_fit(method, t, k, order, degree, centre, extra)
             bound = 10 * EPS * condition**2 * gain * np.abs(x).max()
             assert abs(values[order][k] - estimate(x)) <= bound, (order, k, degree)
 
 
-@pytest.mark.parametrize("ends", ["boundary", "shifted"])
-def test_the_native_path_on_uniform_stamps_is_the_uniform_path(ends):
+@pytest.mark.parametrize(
+    ("ends", "end_exponent"), [("boundary", 0.0), ("boundary", 2.5), ("shifted", 0.0)]
+)
+def test_the_native_path_on_uniform_stamps_is_the_uniform_path(ends, end_exponent):
     """With the ``least_squares`` rule (the discretisation the stamps' fit is), on uniform
     stamps: the same values to rounding and the same trusted samples."""
     t = np.arange(300) * DT
     x = np.sin(2 * np.pi * 6 * t) + 0.05 * np.random.default_rng(2).standard_normal(t.size)
-    method = methods.get("jacobi", **SETTING, rule="least_squares", ends=ends)
+    method = methods.get(
+        "jacobi", **SETTING, rule="least_squares", ends=ends, end_exponent=end_exponent
+    )
     uniform = method(x, DT)
     values, valid = method._estimate_at(x, t, (0, 1, 2))
     for order in (0, 1, 2):
@@ -105,11 +116,20 @@ def test_the_native_path_on_uniform_stamps_is_the_uniform_path(ends):
         np.testing.assert_allclose(values[order][keep], uniform[order][keep], rtol=0, atol=worst)
 
 
-@pytest.mark.parametrize("ends", ["boundary", "shifted"])
-def test_exact_on_polynomials_of_its_degree_at_every_sample_of_jittered_stamps(ends):
+@pytest.mark.parametrize(
+    ("ends", "end_exponent"), [("boundary", 0.0), ("boundary", 2.5), ("shifted", 0.0)]
+)
+def test_exact_on_polynomials_of_its_degree_at_every_sample_of_jittered_stamps(ends, end_exponent):
     t = jittered(seed=7)
     rng = np.random.default_rng(3)
-    method = methods.get("jacobi", **SETTING, rule="least_squares", ends=ends, end_degree=3)
+    method = methods.get(
+        "jacobi",
+        **SETTING,
+        rule="least_squares",
+        ends=ends,
+        end_degree=3,
+        end_exponent=end_exponent,
+    )
     for order in (0, 1, 2):
         degree = int(method.exact_degree(order))
         poly = np.polynomial.Polynomial(rng.standard_normal(degree + 1), domain=[0, t[-1]])
