@@ -407,10 +407,15 @@ def _setting_rows(method: Method) -> list[dict[str, Any]]:
 
 
 def setting_of(name: str, values: dict[str, float]) -> dict[str, Any]:
-    """The parameters back from :func:`_setting_rows`' values (``setting.<name>`` stripped)."""
+    """The parameters back from :func:`_setting_rows`' values (``setting.<name>`` stripped);
+    a parameter the method gained after the rows were stored at its default (a parameter is
+    added with a default that keeps the earlier estimates)."""
 
     params = {}
     for spec in methods.params_of(methods.method_class(name)):
+        if spec.name not in values:
+            params[spec.name] = spec.default
+            continue
         value = values[spec.name]
         if spec.choices is not None and not all(
             isinstance(c, (int, float)) and not isinstance(c, bool) for c in spec.choices

@@ -583,3 +583,16 @@ def test_cli_robot_model_option_and_refusal(tmp_path):
     )
     assert alone.returncode == 2
     assert "--robot-model is valid with --records only" in alone.stderr
+
+
+def test_a_nested_setting_reads_back_from_its_rows_and_a_later_parameter_takes_its_default():
+    """``setting_of`` inverts ``_setting_rows`` (choices by index, integers rounded); rows
+    stored before the method gained a parameter read that parameter at its default."""
+    method = methods.get("jacobi", kappa=3.5, q=9, rule="linear", end_exponent=2.5)
+    values = {
+        row["metric"].removeprefix("setting."): row["value"]
+        for row in dfki_study._setting_rows(method)
+    }
+    assert dfki_study.setting_of("jacobi", values) == method.params()
+    del values["end_exponent"]
+    assert dfki_study.setting_of("jacobi", values) == {**method.params(), "end_exponent": 0.0}
