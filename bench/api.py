@@ -209,6 +209,7 @@ def tune(
     budget: int | None = None,
     region: str = "interior",
     screen: int | None = None,
+    tuned_on: str | None = None,
     seeds: int | None = None,
     jobs: Workers = 1,
     timeout_s: float = runner.DEFAULT_TIMEOUT_S,
@@ -242,6 +243,11 @@ def tune(
         With more combinations of a method's choice parameters than this, each is screened
         by one generation of its search and only this many best are searched in full,
         sharing the budget of all (default: every combination, each with its own budget).
+    tuned_on : str, optional
+        Another signal task of the same sampling step to tune on instead (its tuning seeds,
+        stored and reused as its own tunings): the settings are carried to ``task`` and
+        scored there, their rows saying where they were tuned (a method too costly to tune
+        on a long record, tuned on a short one of the same signal).
     seeds, jobs, timeout_s, out, progress, echo
         As for :func:`run`; ``echo`` also gets each tuning found.
 
@@ -266,6 +272,7 @@ def tune(
     jobs = ready(jobs)
     with checked():
         task = get_task(task)
+    tuning_task = task if tuned_on is None else _tuning_task(tuned_on, task)
     tuned_on = range(tuning_seed, tuning_seed + tuning_seeds)
     if tuned_on[-1] > runner.MAX_SEED:
         raise BadInput(
@@ -275,7 +282,7 @@ def tune(
         )
     with checked():
         seed_list = task.seeds(seeds)
-        task.tuning_data(tuned_on[-1])
+        tuning_task.tuning_data(tuned_on[-1])
     if set(tuned_on) & set(seed_list):
         span = "" if len(tuned_on) == 1 else f" .. {tuned_on[-1]} (--tuning-seeds)"
         raise BadInput(
@@ -295,9 +302,9 @@ def tune(
             f"only, not by {', '.join(criteria)}: drop it, or add one of them to --criteria"
         )
     if data_only:
-        realisation = task.tuning_data(0)
+        realisation = tuning_task.tuning_data(0)
         for criterion in data_only:
-            with checked(f"--cutoff-hz on {task.name}: "):
+            with checked(f"--cutoff-hz on {tuning_task.name}: "):
                 tuning.check_cutoff(cutoff_hz, realisation, criterion, region)
     search = dict(budget=budget, tuning_seeds=tuning_seeds, region=region, screen=screen)
     jobs_list = []
@@ -309,7 +316,9 @@ def tune(
                 continue
             cutoff = cutoff_hz if criterion in data_only else None
             jobs_list += [
-                runner.TuningJob(task.name, name, criterion, order, tuning_seed, cutoff, **search)
+                runner.TuningJob(
+                    tuning_task.name, name, criterion, order, tuning_seed, cutoff, **search
+                )
                 for order in orders
             ]
     store = open_store(out)
@@ -321,10 +330,26 @@ def tune(
             f"{job.method} ({job.role.label}): {chosen or 'no setting covers the task'} "
             f"(loss {record['loss']:.4g}, {record['evaluations']} evaluations)",
         )
-    entries = runner.tuned_entries(found)
+    entries = runner.tuned_entries(found, scored=task.name)
     cells = [cell for entry in entries for cell in entry.cells(task.name, seed_list)]
     summary = _run_cells(cells, store, jobs, timeout_s, progress, echo)
     return RunResult(tunings, summary, runner.report_task(task, store, Path(out)), found)
+
+
+def _tuning_task(name: str, task):
+    """The signal task ``--tuned-on`` names: not ``task`` itself, and sampled at its step."""
+    with checked():
+        other = get_task(name)
+    if other.name == task.name:
+        raise BadInput(f"--tuned-on {name} is the task scored: drop --tuned-on")
+    with checked(f"--tuned-on {name}: "):
+        steps = other.tuning_data(0).dt_s, task.tuning_data(0).dt_s
+    if steps[0] != steps[1]:
+        raise BadInput(
+            f"--tuned-on {name} is sampled every {steps[0]!r} s, {task.name} every "
+            f"{steps[1]!r} s: a setting carries only between records of the same step"
+        )
+    return other
 
 
 def _tune(

@@ -38,7 +38,7 @@ ITEMS = ("jobs", "executor", "scheduler", "progress")  # an item study has no pe
 PLUG = ("plugins",)
 RUN = (*OUT, *WORK, "seeds", "methods", *PLUG)
 TUNE = (*OUT, *WORK, "seeds", *PLUG, "method", "task2", "criteria", "orders2", "cutoff_hz")
-TUNE = (*TUNE, "tuning_seed", "tuning_seeds", "budget", "screen", "region")
+TUNE = (*TUNE, "tuning_seed", "tuning_seeds", "budget", "screen", "region", "tuned_on")
 SWEEP = (*OUT, *WORK, *PLUG, "methods", "seeds2", "orders3")
 ADVICE = ("methods3", "causal", "orders4", "budget2", "out2")
 

@@ -300,6 +300,18 @@ OPTIONS: dict[str, tuple[tuple[str, ...], dict[str, Any]]] = {
             ),
         ),
     ),
+    "tuned_on": (
+        ("--tuned-on",),
+        dict(
+            default=None,
+            metavar="TASK",
+            help=(
+                "tune on TASK's tuning seeds instead (a signal task of the same step; its "
+                "tunings stored and reused as its own) and score the settings on the task "
+                "given: for a method too costly to tune on a long record"
+            ),
+        ),
+    ),
     "budget2": (
         ("--budget",),
         dict(type=typed(positive_count), default=None, help="most evaluations per tuning"),

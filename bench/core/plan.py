@@ -5,6 +5,7 @@ stored; nothing here computes or writes anything."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -118,10 +119,15 @@ class TuningJob:
         )
 
 
-def tuned_entries(found: Mapping[TuningJob, dict]) -> list[Entry]:
-    """An entry per successful tuning (one that found parameters)."""
-    return [
-        Entry(job.method, record["params"], job.role)
-        for job, record in found.items()
-        if record["params"]
-    ]
+def tuned_entries(found: Mapping[TuningJob, dict], scored: str | None = None) -> list[Entry]:
+    """An entry per successful tuning (one that found parameters); a tuning on a task other
+    than ``scored`` (the task its cells are scored on) says so in its role (``tuned_on``)."""
+    entries = []
+    for job, record in found.items():
+        if not record["params"]:
+            continue
+        role = job.role
+        if scored is not None and job.task != scored:
+            role = dataclasses.replace(role, tuned_on=job.task)
+        entries.append(Entry(job.method, record["params"], role))
+    return entries

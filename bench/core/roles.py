@@ -14,7 +14,7 @@ from typing import Any
 ORDER_SYMBOLS = {0: "x", 1: "ẋ", 2: "ẍ"}
 TUNED_REGIONS = ("interior", "whole")
 # fields stored only when they differ from these defaults (older records lack them)
-OPTIONAL_DEFAULTS = {"tuning_seeds": 1, "tuned_region": "interior"}
+OPTIONAL_DEFAULTS = {"tuning_seeds": 1, "tuned_region": "interior", "tuned_on": ""}
 CRITERION_NAMES = {
     "oracle": "oracle",
     "no-truth": "no-truth",
@@ -60,6 +60,10 @@ class Role:
     tuned_region : {"interior", "whole"}
         The samples the tuning loss was taken on (left out of :meth:`as_dict` when
         ``"interior"``, likewise).
+    tuned_on : str
+        The task whose realisations the setting was tuned on, when it is not the task scored
+        (``diffbench tune --tuned-on``: a setting carried from one record to another of the
+        same step); empty, and left out of :meth:`as_dict`, when it is the task scored.
     """
 
     origin: str
@@ -72,6 +76,7 @@ class Role:
     variant: str = ""
     tuning_seeds: int = 1
     tuned_region: str = "interior"
+    tuned_on: str = ""
 
     def __post_init__(self) -> None:
         if self.origin not in ("preset", "tuned", "variant"):
@@ -89,8 +94,14 @@ class Role:
                 f"`tuned_region` must be one of {', '.join(TUNED_REGIONS)}, got "
                 f"{self.tuned_region!r}"
             )
-        if self.origin != "tuned" and (self.tuning_seeds, self.tuned_region) != (1, "interior"):
-            raise ValueError("only a tuned role has tuning seeds and a tuned region")
+        if self.origin != "tuned" and (self.tuning_seeds, self.tuned_region, self.tuned_on) != (
+            1,
+            "interior",
+            "",
+        ):
+            raise ValueError("only a tuned role has tuning seeds, a tuned region and a tuned task")
+        if not isinstance(self.tuned_on, str):
+            raise ValueError(f"`tuned_on` must be a task name, got {self.tuned_on!r}")
 
     @classmethod
     def of_preset(cls, key: str, by: str) -> Role:
@@ -105,6 +116,7 @@ class Role:
         cutoff_hz: float | None = None,
         seeds: int = 1,
         region: str = "interior",
+        tuned_on: str = "",
     ) -> Role:
         return cls(
             origin="tuned",
@@ -114,11 +126,12 @@ class Role:
             cutoff_hz=None if cutoff_hz is None else float(cutoff_hz),
             tuning_seeds=seeds,
             tuned_region=region,
+            tuned_on=tuned_on,
         )
 
     def as_dict(self) -> dict[str, Any]:
-        """The stored fields; ``tuning_seeds`` and ``tuned_region`` only when they are not
-        1 and ``"interior"``."""
+        """The stored fields; ``tuning_seeds``, ``tuned_region`` and ``tuned_on`` only when
+        they are not 1, ``"interior"`` and empty."""
         fields = dataclasses.asdict(self)
         for name, default in OPTIONAL_DEFAULTS.items():
             if fields[name] == default:
@@ -128,7 +141,8 @@ class Role:
     @property
     def label(self) -> str:
         """``preset (paper)``, ``oracle-tuned for ẍ``, ``no-truth-tuned for ẋ (f_c 20 Hz)``,
-        ``oracle-tuned for ẋ (whole record, 5 seeds)``, ``variant: q = 2``."""
+        ``oracle-tuned for ẋ (whole record, 5 seeds)``, ``oracle-tuned for ẋ (whole record, on
+        paper-signal-999ms)``, ``variant: q = 2``."""
         if self.origin == "preset":
             return "class defaults" if self.by == "defaults" else f"preset ({self.by})"
         if self.origin == "variant":
@@ -139,6 +153,8 @@ class Role:
             details.append("whole record")
         if self.tuning_seeds > 1:
             details.append(f"{self.tuning_seeds} seeds")
+        if self.tuned_on:
+            details.append(f"on {self.tuned_on}")
         return text + (f" ({', '.join(details)})" if details else "")
 
     @property
@@ -152,6 +168,7 @@ class Role:
             self.tuned_order or 0,
             self.tuned_region == "whole",
             self.tuning_seeds,
+            self.tuned_on,
             self.variant,
             self.tuning_seed or 0,
         )

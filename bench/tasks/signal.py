@@ -289,6 +289,7 @@ def tuning_table(cells: pd.DataFrame, tunings: pd.DataFrame) -> pd.DataFrame:
         "tuned_order",
         "tuning_seeds",
         "tuned_region",
+        "tuned_on",
         "order",
         "region",
         "metric",
@@ -315,7 +316,8 @@ def tuning_table(cells: pd.DataFrame, tunings: pd.DataFrame) -> pd.DataFrame:
             coverages = list(presets[presets["metric"] == "coverage"]["value"])
             for column, criterion, seeds, tuned_region in TUNING_VARIANTS:
                 hit = _variant(group, criterion, seeds, tuned_region)
-                key = (method, "tuned", criterion, order, seeds, tuned_region, order, region)
+                # the tunings on this task (a setting tuned on another has its own rows)
+                key = (method, "tuned", criterion, order, seeds, tuned_region, "", order, region)
                 record[column] = (
                     means.get((*key, "rmse"), float("nan")) if len(hit) else float("nan")
                 )

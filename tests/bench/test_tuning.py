@@ -1,6 +1,7 @@
 """The tuner: known optima, ranges respected, tuning and scoring on different seeds."""
 
 import dataclasses
+import json
 import math
 from dataclasses import dataclass
 from types import SimpleNamespace
@@ -414,12 +415,13 @@ def test_whole_record_tuning_refuses_unestimated_ends_and_the_no_truth_criterion
 
 def test_tuning_table_keeps_each_tuning_apart_on_the_interior_and_the_whole_record():
     """The 1-seed and the 10-seed whole-record tunings are columns of their own (never
-    averaged together), each scored on the interior and on the whole record."""
+    averaged together), each scored on the interior and on the whole record; a setting tuned
+    on another task is in none of them."""
     import pandas as pd
 
     from diffbench.bench.tasks.signal import tuning_table
 
-    def cells(origin, criterion, seeds, region_tuned, interior, whole, coverage):
+    def cells(origin, criterion, seeds, region_tuned, interior, whole, coverage, tuned_on=""):
         rows = []
         for seed, shift in enumerate((-1.0, 1.0)):
             for region, value in (("interior", interior), ("whole", whole)):
@@ -431,6 +433,7 @@ def test_tuning_table_keeps_each_tuning_apart_on_the_interior_and_the_whole_reco
                         "tuned_order": 1 if origin == "tuned" else None,
                         "tuning_seeds": seeds,
                         "tuned_region": region_tuned,
+                        "tuned_on": tuned_on,
                         "order": 1,
                         "region": region,
                         "metric": "rmse",
@@ -446,6 +449,7 @@ def test_tuning_table_keeps_each_tuning_apart_on_the_interior_and_the_whole_reco
                     "tuned_order": 1 if origin == "tuned" else None,
                     "tuning_seeds": seeds,
                     "tuned_region": region_tuned,
+                    "tuned_on": tuned_on,
                     "order": 1,
                     "region": "whole",
                     "metric": "coverage",
@@ -460,6 +464,8 @@ def test_tuning_table_keeps_each_tuning_apart_on_the_interior_and_the_whole_reco
         + cells("tuned", "oracle", 1, "interior", 3.0, 8.0, 0.9)
         + cells("tuned", "oracle", 10, "whole", 4.0, 6.0, 1.0)
         + cells("tuned", "oracle", 1, "whole", 3.5, 5.5, 1.0)
+        # a setting tuned on another task (--tuned-on): rows of its own, in no column here
+        + cells("tuned", "oracle", 1, "whole", 50.0, 70.0, 0.5, tuned_on="other")
     )
     tunings = pd.DataFrame(
         [
@@ -620,3 +626,42 @@ def test_screening_the_choices_keeps_the_best_and_may_give_it_the_budget_of_all(
         full.loss,
         full.evaluations,
     )
+
+
+def test_a_setting_tuned_on_one_record_is_scored_on_another_of_the_same_step(tmp_path, capsys):
+    """``tune --tuned-on``: the tuning is the other task's own (stored under it, reused by a
+    tuning there), its setting is scored on the task given, and the rows say where it was
+    tuned; the task itself, another step or an unknown task are refused by name."""
+    from diffbench.bench.core.roles import Role
+    from diffbench.bench.core.store import Store
+
+    role = Role.tuned("oracle", 1, 10_000, region="whole", tuned_on="paper-signal-999ms")
+    assert role.as_dict()["tuned_on"] == "paper-signal-999ms"
+    assert "tuned_on" not in Role.tuned("oracle", 1, 10_000).as_dict()
+    assert role.label == "oracle-tuned for ẋ (whole record, on paper-signal-999ms)"
+    with pytest.raises(ValueError, match="only a tuned role has"):
+        Role(origin="preset", tuned_on="paper-signal")
+    base = ["tune", "finite_difference", "--orders", "1", "--seeds", "2", "--no-progress"]
+    out = ["--out", str(tmp_path)]
+    assert main([*base, "paper-signal-999ms", "--tuned-on", "paper-signal", *out]) == 0
+    store = Store(tmp_path / "store")
+    (tuned,) = store.tunings.records.values()
+    assert tuned["task"] == "paper-signal"
+    rows = store.cells_frame("paper-signal-999ms")
+    assert (rows["tuned_on"] == "paper-signal").all() and len(set(rows["params"])) == 1
+    assert rows["params"].iloc[0] == json.dumps(tuned["params"], separators=(",", ":"))
+    text = (tmp_path / "paper-signal-999ms" / "rmse.md").read_text()
+    assert "oracle-tuned for ẋ (on paper-signal)" in text
+    capsys.readouterr()
+    assert main([*base, "paper-signal", *out]) == 0  # the same tuning, reused
+    assert "0 tunings computed, 1 reused from the store" in capsys.readouterr().out
+    own = Store(tmp_path / "store").cells_frame("paper-signal")
+    assert len(own) and (own["tuned_on"] == "").all()
+    for other, message in (
+        ("paper-signal", "is the task scored: drop --tuned-on"),
+        ("grid-gaussian-0.2-10ms", "sampled every 0.01 s, paper-signal every 0.001 s"),
+        ("paper-signl", "did you mean 'paper-signal'"),
+    ):
+        assert main([*base, "paper-signal", "--tuned-on", other, *out]) == 2
+        error = capsys.readouterr().err
+        assert message in error and error.count("\n") == 1, error
