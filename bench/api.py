@@ -47,6 +47,7 @@ from diffbench.bench.arguments import (
     task_of,
     timeout,
     tuning_seed_count,
+    tuning_task_for,
 )
 from diffbench.bench.arguments import criteria as criteria_list
 from diffbench.bench.arguments import orders as order_list
@@ -233,8 +234,7 @@ def tune(
         Bandlimit guess of the data-only criteria (no-truth, pynumdiff), inside (0, Nyquist);
         default :data:`DEFAULT_CUTOFF_HZ`. Refused when no criterion given reads it.
     tuning_seed, tuning_seeds : int
-        The noise seeds tuned on: ``tuning_seed .. tuning_seed + tuning_seeds - 1`` (never
-        scored).
+        The noise seeds tuned on, ``tuning_seed .. tuning_seed + tuning_seeds - 1`` (unscored).
     budget : int, optional
         Most evaluations per differential-evolution run.
     region : {"interior", "whole"}
@@ -244,10 +244,7 @@ def tune(
         by one generation of its search and only this many best are searched in full,
         sharing the budget of all (default: every combination, each with its own budget).
     tuned_on : str, optional
-        Another signal task of the same sampling step to tune on instead (its tuning seeds,
-        stored and reused as its own tunings): the settings are carried to ``task`` and
-        scored there, their rows saying where they were tuned (a method too costly to tune
-        on a long record, tuned on a short one of the same signal).
+        A signal task of the same step to tune on instead (rows say so; scored on ``task``).
     seeds, jobs, timeout_s, out, progress, echo
         As for :func:`run`; ``echo`` also gets each tuning found.
 
@@ -272,7 +269,7 @@ def tune(
     jobs = ready(jobs)
     with checked():
         task = get_task(task)
-    tuning_task = task if tuned_on is None else _tuning_task(tuned_on, task)
+    tuning_task = task if tuned_on is None else tuning_task_for(tuned_on, task)
     tuned_on = range(tuning_seed, tuning_seed + tuning_seeds)
     if tuned_on[-1] > runner.MAX_SEED:
         raise BadInput(
@@ -307,6 +304,7 @@ def tune(
             with checked(f"--cutoff-hz on {tuning_task.name}: "):
                 tuning.check_cutoff(cutoff_hz, realisation, criterion, region)
     search = dict(budget=budget, tuning_seeds=tuning_seeds, region=region, screen=screen)
+    on = tuning_task.name  # the task tuned on
     jobs_list = []
     for criterion in criteria:
         for name in names:
@@ -316,9 +314,7 @@ def tune(
                 continue
             cutoff = cutoff_hz if criterion in data_only else None
             jobs_list += [
-                runner.TuningJob(
-                    tuning_task.name, name, criterion, order, tuning_seed, cutoff, **search
-                )
+                runner.TuningJob(on, name, criterion, order, tuning_seed, cutoff, **search)
                 for order in orders
             ]
     store = open_store(out)
@@ -334,22 +330,6 @@ def tune(
     cells = [cell for entry in entries for cell in entry.cells(task.name, seed_list)]
     summary = _run_cells(cells, store, jobs, timeout_s, progress, echo)
     return RunResult(tunings, summary, runner.report_task(task, store, Path(out)), found)
-
-
-def _tuning_task(name: str, task):
-    """The signal task ``--tuned-on`` names: not ``task`` itself, and sampled at its step."""
-    with checked():
-        other = get_task(name)
-    if other.name == task.name:
-        raise BadInput(f"--tuned-on {name} is the task scored: drop --tuned-on")
-    with checked(f"--tuned-on {name}: "):
-        steps = other.tuning_data(0).dt_s, task.tuning_data(0).dt_s
-    if steps[0] != steps[1]:
-        raise BadInput(
-            f"--tuned-on {name} is sampled every {steps[0]!r} s, {task.name} every "
-            f"{steps[1]!r} s: a setting carries only between records of the same step"
-        )
-    return other
 
 
 def _tune(

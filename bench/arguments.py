@@ -320,3 +320,19 @@ def task_of(
             robot_model = load_pendulum_model(robot_model)
     with checked("--records: "):
         return dfki_task(records, robot_model=robot_model)
+
+
+def tuning_task_for(name: str, task: Task) -> Task:
+    """The signal task ``--tuned-on`` names: not ``task`` itself, and sampled at its step."""
+    with checked():
+        other = get_task(name)
+    if other.name == task.name:
+        raise BadInput(f"--tuned-on {name} is the task scored: drop --tuned-on")
+    with checked(f"--tuned-on {name}: "):
+        steps = other.tuning_data(0).dt_s, task.tuning_data(0).dt_s
+    if steps[0] != steps[1]:
+        raise BadInput(
+            f"--tuned-on {name} is sampled every {steps[0]!r} s, {task.name} every "
+            f"{steps[1]!r} s: a setting carries only between records of the same step"
+        )
+    return other
