@@ -37,13 +37,13 @@ GRID_PEERS := pynumdiff.spectraldiff,pynumdiff.butterdiff,pynumdiff.savgoldiff,p
 SPECTRAL_PEERS := pynumdiff.spectraldiff,derivative.spectral
 # PyNumDiff's counterparts of Kalman and Jacobi (issue 45's targets), tuned on the whole record
 # of each paper-signal record (the 1001 samples whose ends meet, and those whose ends do not)
-# and the kink; rbfdiff (the Gaussian process's) costs 1.6 s a call on 1000 samples, too slow
+# and the kink; rbfdiff (the Gaussian process's) costs 1.3 s a call on 1000 samples, too slow
 # for 8000 calls (its own step below). The whole-record tunings screen the choice combinations
 # (--screen 2): the end treatments multiply them (Jacobi 9, spectral 16), and 400 evaluations
 # each left Jacobi's ẍ on 1000 samples worse on the scored seeds than its paper preset
 COUNTERPARTS := pynumdiff.rtsdiff,pynumdiff.polydiff
 # The Gaussian process against rbfdiff, its counterpart, on the whole record: one tuning seed
-# and the default budget for both (rbfdiff costs 1.6 s a call on 1000 samples, 42 s on 4937:
+# and the default budget for both (rbfdiff costs 1.3 s a call on 1000 samples, 9 s on 4937:
 # the 10-seed protocol above is out of its reach); on the 4.937 s record both are scored at
 # the settings they were tuned to on the 1000-sample one (--tuned-on: same signal and step)
 GP_COUNTERPART := gaussian_process,pynumdiff.rbfdiff
