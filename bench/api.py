@@ -270,8 +270,8 @@ def tune(
     with checked():
         task = get_task(task)
     tuning_task = task if tuned_on is None else tuning_task_for(tuned_on, task)
-    tuned_on = range(tuning_seed, tuning_seed + tuning_seeds)
-    if tuned_on[-1] > runner.MAX_SEED:
+    tuned_seeds = range(tuning_seed, tuning_seed + tuning_seeds)
+    if tuned_seeds[-1] > runner.MAX_SEED:
         raise BadInput(
             f"--tuning-seed {tuning_seed} with --tuning-seeds {tuning_seeds} goes past the "
             f"largest seed {runner.MAX_SEED}; choose a tuning seed <= "
@@ -279,9 +279,9 @@ def tune(
         )
     with checked():
         seed_list = task.seeds(seeds)
-        tuning_task.tuning_data(tuned_on[-1])
-    if set(tuned_on) & set(seed_list):
-        span = "" if len(tuned_on) == 1 else f" .. {tuned_on[-1]} (--tuning-seeds)"
+        tuning_task.tuning_data(tuned_seeds[-1])
+    if set(tuned_seeds) & set(seed_list):
+        span = "" if len(tuned_seeds) == 1 else f" .. {tuned_seeds[-1]} (--tuning-seeds)"
         raise BadInput(
             f"--tuning-seed {tuning_seed}{span} overlaps the scored seeds "
             f"0..{seed_list[-1]}; choose a tuning seed >= {len(seed_list)}"

@@ -324,12 +324,14 @@ def task_of(
 
 def tuning_task_for(name: str, task: Task) -> Task:
     """The signal task ``--tuned-on`` names: not ``task`` itself, and sampled at its step."""
-    with checked():
+    with checked("--tuned-on: "):
         other = get_task(name)
     if other.name == task.name:
         raise BadInput(f"--tuned-on {name} is the task scored: drop --tuned-on")
+    with checked():
+        scored = task.tuning_data(0)
     with checked(f"--tuned-on {name}: "):
-        steps = other.tuning_data(0).dt_s, task.tuning_data(0).dt_s
+        steps = other.tuning_data(0).dt_s, scored.dt_s
     if steps[0] != steps[1]:
         raise BadInput(
             f"--tuned-on {name} is sampled every {steps[0]!r} s, {task.name} every "

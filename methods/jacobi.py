@@ -224,7 +224,8 @@ class Jacobi(FirMethod):
         tune_high=8.0,
         doc=(
             "extra exponent s of the boundary fits' weight at the ends, "
-            "(1-tau)^(mu+s) (1+tau)^(kappa+s): 0 is the interior's weight"
+            "(1-tau)^(mu+s) (1+tau)^(kappa+s) (exponents below 0 taken as 0 first): 0 is the "
+            "interior's weight"
         ),
         ends_only=True,
     )

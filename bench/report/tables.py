@@ -285,6 +285,10 @@ def legend(rows: pd.DataFrame, extra: str = "") -> str:
             text += "; **K seeds**: the loss averaged over K consecutive seeds"
         if (tuned["tuned_region"] == "whole").any():
             text += "; **whole record**: the loss taken on every sample, edge treatments tuned too"
+        if "tuned_on" in tuned and (tuned["tuned_on"] != "").any():
+            text += (
+                "; **on TASK**: tuned on that task's record of the same step, scored on this one"
+            )
         lines.append(text + ").")
     if extra:
         lines.append(extra)

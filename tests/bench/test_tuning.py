@@ -651,7 +651,7 @@ def test_a_setting_tuned_on_one_record_is_scored_on_another_of_the_same_step(tmp
     assert (rows["tuned_on"] == "paper-signal").all() and len(set(rows["params"])) == 1
     assert rows["params"].iloc[0] == json.dumps(tuned["params"], separators=(",", ":"))
     text = (tmp_path / "paper-signal-999ms" / "rmse.md").read_text()
-    assert "oracle-tuned for ẋ (on paper-signal)" in text
+    assert "oracle-tuned for ẋ (on paper-signal)" in text and "**on TASK**" in text
     capsys.readouterr()
     assert main([*base, "paper-signal", *out]) == 0  # the same tuning, reused
     assert "0 tunings computed, 1 reused from the store" in capsys.readouterr().out
@@ -660,8 +660,12 @@ def test_a_setting_tuned_on_one_record_is_scored_on_another_of_the_same_step(tmp
     for other, message in (
         ("paper-signal", "is the task scored: drop --tuned-on"),
         ("grid-gaussian-0.2-10ms", "sampled every 0.01 s, paper-signal every 0.001 s"),
-        ("paper-signl", "did you mean 'paper-signal'"),
+        ("paper-signl", "--tuned-on: unknown task 'paper-signl'; did you mean 'paper-signal'"),
     ):
         assert main([*base, "paper-signal", "--tuned-on", other, *out]) == 2
         error = capsys.readouterr().err
         assert message in error and error.count("\n") == 1, error
+    # a scored task that cannot be tuned is named as itself, not as --tuned-on's
+    assert main([*base, "robot-sim", "--tuned-on", "paper-signal", *out]) == 2
+    error = capsys.readouterr().err
+    assert "task 'robot-sim' cannot be tuned" in error and "--tuned-on" not in error, error
