@@ -169,6 +169,42 @@ def test_jacobi_boundary_ends_are_numpys_weighted_fit_at_each_sample(
                 assert abs(values[order][sample] - expected) <= 1e-8 * scale, (order, sample)
 
 
+def test_jacobi_end_fits_lose_degree_with_the_samples_their_sharpened_weight_keeps():
+    """A large ``end_exponent`` on a short window leaves fewer samples of half a window
+    carrying weight than the interior's weight does (here 3 of 6): the end fits' degree falls
+    to what those samples can fit (2, below ``end_degree`` = 4), and each end sample is numpy's
+    weighted fit of that degree, with the sharpened weight (1-τ)^(μ+s) (1+τ)^(κ+s)."""
+    kappa = mu = 1.0
+    s, m, n = 400.0, 6, 60
+    method = methods.get(
+        "jacobi",
+        kappa=kappa,
+        mu=mu,
+        q=4,
+        window_s=2 * m * DT,
+        accel_window_s=2 * m * DT,
+        rule="least_squares",
+        end_degree=4,
+        end_exponent=s,
+    )
+    assert method._carrying(m) - 1 >= 4 > method._carrying(m, method._end_weight) - 1 == 2
+    x = np.random.default_rng(5).standard_normal(n)
+    values, _ = method._estimate(x, DT, (0, 1, 2))
+    t = np.arange(n) * DT
+    for order in (0, 1, 2):
+        scale = np.max(np.abs(values[order][m:-m]))
+        for k in range(m):
+            for sample in (k, n - 1 - k):
+                near = np.abs(np.arange(n) - sample) <= m
+                tau = np.clip((t[near] - t[sample]) / (m * DT), -1.0, 1.0)
+                weights = (1 - tau) ** (mu + s) * (1 + tau) ** (kappa + s)
+                fit = np.polynomial.Polynomial.fit(t[near], x[near], 2, w=np.sqrt(weights))
+                expected = fit.deriv(order)(t[sample])
+                # the bound of the numpy comparison above: both solve a weighted least-squares
+                # problem whose weights span 1 to 1e-30 (measured here: 5e-10 of the scale)
+                assert abs(values[order][sample] - expected) <= 1e-8 * scale, (order, sample)
+
+
 def test_jacobi_central_mode_keeps_the_papers_unestimated_ends():
     realisation = signals.get_scenario("paper-signal-clean").realise(0)
     central = methods.get("jacobi", ends="central")(realisation.x, DT)
