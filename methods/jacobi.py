@@ -429,10 +429,10 @@ class Jacobi(FirMethod):
     def unused_params(self) -> tuple[str, ...]:
         return () if self.ends == "boundary" else ("end_degree", "end_exponent")
 
-    def _end_degree(self, order: int, m: int) -> int:
-        """The boundary fits' degree: ``end_degree`` within [n, n+q], and below the samples
-        that carry weight in half a window (the first sample's fit has only those)."""
-        carrying = self._carrying(m, self._end_weight)
+    def _end_degree(self, order: int, carrying: int) -> int:
+        """The boundary fits' degree: ``end_degree`` within [n, n+q], and below ``carrying``,
+        the samples of half a window whose end weight counts (the first sample's fit has only
+        those)."""
         return min(max(order, self.end_degree), self._fit_degree(order), carrying - 1)
 
     def _carrying(self, m: int, weight=None) -> int:
@@ -465,8 +465,9 @@ class Jacobi(FirMethod):
         :meth:`_end_degree` at the edge rising linearly to the interior's n+q next to the first
         central window, so that the fits join the interior's. Below ``order`` where too few
         samples carry weight (those samples get no estimate)."""
-        edge, inside = self._end_degree(order, m), self._fit_degree(order)
-        inside = min(inside, max(edge, self._carrying(m, self._end_weight) - 1))
+        carrying = self._carrying(m, self._end_weight)
+        edge, inside = self._end_degree(order, carrying), self._fit_degree(order)
+        inside = min(inside, max(edge, carrying - 1))
         return np.round(edge + (inside - edge) * np.arange(m) / m).astype(int)
 
     def _boundary_ends(self, x, dt, order: int, m: int, filtered: np.ndarray) -> np.ndarray:

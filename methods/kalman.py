@@ -706,9 +706,11 @@ def rts_smooth(
     transient = min(n, len(gains.filter_gains))
     # by block maps when they are prepared and the whole transient is run (a record longer
     # than it), else step by step
-    maps = gains.transient
-    if maps is None and gains.key is not None and n > transient:
-        maps = _cached_maps(gains, z.shape[1])
+    maps = None
+    if n > transient:
+        maps = gains.transient
+        if maps is None and gains.key is not None:
+            maps = _cached_maps(gains, z.shape[1])
     blocked = maps is not None
     if blocked:
         filtered = _blocked_filter(z, maps, mean0)
