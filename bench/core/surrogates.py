@@ -39,6 +39,7 @@ estimate; lines removed before the continuum is estimated).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import optimize, stats
@@ -106,7 +107,78 @@ def surrogate_records(
     """``count`` surrogate realisations of the record ``x`` (uniform step ``dt``, its
     spectrum ``spectrum``), seeded by ``seed``. ``scored``: the samples whose derivatives are
     wanted (the surrogates' ``interior``, where their continuum is measured; default all but
-    ``END_FRACTION`` of the record at either end)."""
+    ``END_FRACTION`` of the record at either end). The first batch of
+    :func:`surrogate_model`'s draws."""
+    return surrogate_model(spectrum, x, dt, scored).draw(count, seed)
+
+
+@dataclass(frozen=True, eq=False)
+class SurrogateModel:
+    """What a record's surrogates share (see the module docstring), fitted once by
+    :func:`surrogate_model`: the time stamps and scored samples, the record's signal lines
+    and their first two derivatives (``line_terms``), its disturbances, the continuum's
+    amplitudes on the ``LENGTH_FACTOR`` times finer grid ``fine_hz``, the noise's power per
+    rfft bin of the record, and the short record's polynomial trend (``None`` otherwise)
+    with the noise variance its coefficients are drawn with."""
+
+    t: np.ndarray
+    dt: float
+    interior: np.ndarray
+    line_terms: tuple
+    disturbance: np.ndarray
+    fine_hz: np.ndarray
+    amplitude: np.ndarray
+    noise_power: np.ndarray
+    trend: np.polynomial.Polynomial | None
+    floor: float
+
+    def draw(self, count: int, seed: int = 0, batch: int = 0) -> list[signals.Realisation]:
+        """``count`` surrogate realisations, seeded by ``seed`` and ``batch``: each batch is
+        its own stream, so further batches add surrogates without changing a first batch's
+        (batch 0 is :func:`surrogate_records`'s)."""
+        rng = np.random.default_rng([7, seed] if batch == 0 else [7, seed, batch])
+        n_samples = self.t.size
+        long = LENGTH_FACTOR * n_samples
+        omega = 2 * np.pi * self.fine_hz
+        t, trend = self.t, self.trend
+        if trend is not None:
+            trends = trend_draws(trend, t, self.floor, count, rng)
+        realisations = []
+        for index in range(count):
+            # the continuum by inverse FFT on the long grid (its derivatives: (iω)^n times
+            # each term), a window of the record's length taken at random
+            phase = np.exp(1j * rng.uniform(0.0, 2 * np.pi, self.fine_hz.size))
+            start = int(rng.integers(0, long - n_samples + 1))
+            derivatives = []
+            for order in range(3):
+                terms = (long / 2) * self.amplitude * phase * (1j * omega) ** order
+                continuum = np.fft.irfft(terms, long)[start : start + n_samples]
+                derivatives.append(continuum + self.line_terms[order])
+            if trend is not None:
+                derivatives = [
+                    d + trends[index].deriv(order)(t) for order, d in enumerate(derivatives)
+                ]
+            truth = signals.Truth(t=t, derivatives=tuple(derivatives))
+            noise = _coloured_noise(self.noise_power, n_samples, rng) + self.disturbance
+            realisations.append(
+                signals.Realisation(
+                    t=t,
+                    dt_s=self.dt,
+                    x=truth[0] + noise,
+                    truth=truth,
+                    noise=noise,
+                    seed=seed * 1000 + index,
+                    interior=self.interior,
+                )
+            )
+        return realisations
+
+
+def surrogate_model(
+    spectrum: RecordSpectrum, x: np.ndarray, dt: float, scored: np.ndarray | None = None
+) -> SurrogateModel:
+    """The :class:`SurrogateModel` of the record ``x`` (uniform step ``dt``, its spectrum
+    ``spectrum``); ``scored`` as for :func:`surrogate_records`."""
     x = np.asarray(x, dtype=np.float64)
     n_samples = x.size
     if spectrum.frequency_hz.size != n_samples // 2 + 1:
@@ -166,37 +238,18 @@ def surrogate_records(
     fine_signal = np.interp(fine, spectrum.frequency_hz, signal_power) / LENGTH_FACTOR
     fine_signal[0] = fine_signal[-1] = 0.0  # no constant (detrended), no Nyquist term
     amplitude = 2 * np.sqrt(fine_signal / n_samples)  # a_k = sqrt(2 w_k S_k / N), w_k = 2
-    omega = 2 * np.pi * fine
-    rng = np.random.default_rng([7, seed])
-    if trend is not None:
-        trends = trend_draws(trend, t, floor, count, rng)
-    realisations = []
-    for index in range(count):
-        # the continuum by inverse FFT on the long grid (its derivatives: (iω)^n times each
-        # term), a window of the record's length taken at random
-        phase = np.exp(1j * rng.uniform(0.0, 2 * np.pi, fine.size))
-        start = int(rng.integers(0, long - n_samples + 1))
-        derivatives = []
-        for order in range(3):
-            terms = (long / 2) * amplitude * phase * (1j * omega) ** order
-            continuum = np.fft.irfft(terms, long)[start : start + n_samples]
-            derivatives.append(continuum + line_terms[order])
-        if trend is not None:
-            derivatives = [d + trends[index].deriv(order)(t) for order, d in enumerate(derivatives)]
-        truth = signals.Truth(t=t, derivatives=tuple(derivatives))
-        noise = _coloured_noise(noise_power, n_samples, rng) + disturbance
-        realisations.append(
-            signals.Realisation(
-                t=t,
-                dt_s=dt,
-                x=truth[0] + noise,
-                truth=truth,
-                noise=noise,
-                seed=seed * 1000 + index,
-                interior=interior,
-            )
-        )
-    return realisations
+    return SurrogateModel(
+        t=t,
+        dt=dt,
+        interior=interior,
+        line_terms=tuple(line_terms),
+        disturbance=disturbance,
+        fine_hz=fine,
+        amplitude=amplitude,
+        noise_power=noise_power,
+        trend=trend,
+        floor=floor,
+    )
 
 
 def spectral_lines(

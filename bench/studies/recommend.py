@@ -35,13 +35,14 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from scipy import stats
 
 from diffbench import methods
 from diffbench.bench.core import executor
 from diffbench.bench.core.errors import DiffbenchWarning, plugin_failure, timeout_failure
 from diffbench.bench.core.scores import error_metrics
 from diffbench.bench.core.spectrum import RecordSpectrum, record_spectrum
-from diffbench.bench.core.surrogates import default_scored, surrogate_records
+from diffbench.bench.core.surrogates import default_scored, surrogate_model
 from diffbench.bench.core.tuning import tune
 from diffbench.bench.report import figures
 from diffbench.bench.report.tables import markdown_table
@@ -71,8 +72,24 @@ SCREENED_CHOICES = 2
 treatment: 9) has each screened by one generation of its tuning, and only this many best
 tuned in full (the tuner's ``screen_choices``)."""
 
-SCORING_SURROGATES = 4
-"""Other surrogates the tuned setting is scored on: the predicted RMSE and its spread."""
+SCORING_SURROGATES = 16
+"""Other surrogates the tuned setting is scored on: the predicted RMSE, its spread and its
+interval. The first :data:`SHARED_BATCH_SCORING` are drawn in the tuning surrogates' batch,
+the others in a batch of their own (:meth:`~diffbench.bench.core.surrogates.SurrogateModel.
+draw`), so that their number leaves the tuning surrogates, and so the settings, as they are.
+One surrogate's error varies by a tenth to a fifth of its mean on the validation records:
+the mean of four is off by up to a tenth, of sixteen by up to a twentieth."""
+
+SHARED_BATCH_SCORING = 4
+"""Scoring surrogates drawn with the tuning ones (see :data:`SCORING_SURROGATES`)."""
+
+INTERVAL = 0.9
+"""The probability of the predicted interval ``low``..``high``: the record's own error lies
+in it for that share of records like it (the scoring surrogates' errors taken as a
+log-normal sample: its prediction interval). A record's error varies from one noise draw
+to the next (on the validation records its standard deviation is a tenth to a fifth of its
+mean), so a prediction of the error to expect cannot match every record more closely; the
+interval says how far it may be (:func:`error_interval`)."""
 
 FAILED = "failed: "
 """How a row of a plugin method that failed begins its ``params`` (the reason follows)."""
@@ -84,6 +101,8 @@ COLUMNS = (
     "params",
     "predicted_rmse",
     "spread",
+    "low",
+    "high",
     "coverage",
     "package",
     "seconds",
@@ -95,7 +114,9 @@ class Recommendation:
     """The spectrum of the record divided by ``scale`` and one row per (order, method): its
     tuned ``params`` (for the record divided by ``scale``), predicted RMSE over the scored
     samples ``predicted_rmse`` ± ``spread`` (standard deviation over the scoring surrogates;
-    in the record's units), its ``coverage`` of the record (the fraction it marks valid), and
+    in the record's units) and the interval ``low``..``high`` the record's own error lies in
+    with probability :data:`INTERVAL` (:func:`error_interval`), its ``coverage`` of the
+    record (the fraction it marks valid), and
     its ``rank`` among the methods (1: best; methods that failed have no rank and say why in
     ``params``)."""
 
@@ -156,12 +177,13 @@ def recommend(
     scale = record_scale(samples)
     samples = samples / scale
     spectrum = record_spectrum(samples, dt)
-    drawn = surrogate_records(
-        spectrum, samples, dt, TUNING_SURROGATES + SCORING_SURROGATES, seed=seed, scored=scored
-    )
+    model = surrogate_model(spectrum, samples, dt, scored=scored)
+    drawn = model.draw(TUNING_SURROGATES + SHARED_BATCH_SCORING, seed)
     length = tuning_length(spectrum.band_hz, dt)
     tuning = [middle_segment(r, length) for r in drawn[:TUNING_SURROGATES]]
-    scoring = drawn[TUNING_SURROGATES:]
+    scoring = drawn[TUNING_SURROGATES:] + model.draw(
+        SCORING_SURROGATES - SHARED_BATCH_SCORING, seed, batch=1
+    )
     pairs = [
         (name, order)
         for name in (names if names is not None else methods.available())
@@ -182,7 +204,7 @@ def recommend(
     for params in table["params"]:
         if isinstance(params, str) and params.startswith(FAILED):
             warnings.warn(params[len(FAILED) :], DiffbenchWarning, stacklevel=2)
-    for column in ("predicted_rmse", "spread"):
+    for column in ("predicted_rmse", "spread", "low", "high"):
         table[column] = table[column] * scale
     table["rank"] = table.groupby("order")["predicted_rmse"].rank(method="first", na_option="keep")
     table = table.sort_values(["order", "rank"], na_position="last").reset_index(drop=True)
@@ -217,6 +239,27 @@ def middle_segment(realisation, length: int):
     if inside.sum() < 16:
         return realisation
     return realisation.stretch(cut, inside)
+
+
+def error_interval(errors, probability: float = INTERVAL) -> tuple[float, float]:
+    r"""The interval that holds the error of one more record like the surrogates with
+    ``probability``, from their ``errors`` (n RMSEs) taken as log-normal: the prediction
+    interval of a normal sample for the logarithms,
+
+    .. math:: \exp\Big(m \mp t_{n-1,(1+p)/2}\, s \sqrt{1 + 1/n}\Big),
+
+    m and s the mean and (n − 1) standard deviation of :math:`\ln e` and t Student's
+    quantile: it holds a new draw with probability p exactly when the logarithms are normal
+    (G. J. Hahn, W. Q. Meeker, *Statistical Intervals*, Wiley 1991, sec. 4.7). An RMSE is
+    positive and its spread grows with it, so a normal interval about the mean would reach
+    below 0 for a wide one. Errors of 0 (an exact method) count as the smallest positive
+    float."""
+    logs = np.log(np.maximum(np.asarray(errors, dtype=np.float64), np.finfo(float).tiny))
+    count = logs.size
+    quantile = float(stats.t.ppf((1 + probability) / 2, count - 1))
+    width = quantile * float(np.std(logs, ddof=1)) * math.sqrt(1 + 1 / count)
+    centre = float(np.mean(logs))
+    return math.exp(centre - width), math.exp(centre + width)
 
 
 def record_scale(x: np.ndarray) -> float:
@@ -262,7 +305,9 @@ def _tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed, timeo
         reason = plugin_failure(name, error)
         if reason is None:
             raise
-    failed = dict.fromkeys(("predicted_rmse", "spread", "coverage", "seconds"), math.nan)
+    failed = dict.fromkeys(
+        ("predicted_rmse", "spread", "low", "high", "coverage", "seconds"), math.nan
+    )
     row = {"order": order, "method": name, "package": methods.package_of(name)}
     return {**row, **failed, "params": f"{FAILED}{reason}"}
 
@@ -288,7 +333,7 @@ def _tuned_and_scored_row(name, order, tuning, scoring, max_evaluations, seed, t
                 "surrogates (the record may be too short for it)"
             )
     except ValueError as error:
-        failed = dict.fromkeys(("predicted_rmse", "spread", "coverage"), math.nan)
+        failed = dict.fromkeys(("predicted_rmse", "spread", "low", "high", "coverage"), math.nan)
         return {
             **row,
             **failed,
@@ -310,12 +355,15 @@ def _tuned_and_scored_row(name, order, tuning, scoring, max_evaluations, seed, t
             continue
         errors.append(error_metrics(estimate[order], realisation.truth[order], scored)["rmse"])
         coverage.append(float(estimate.valid[order].mean()))
-    finite = np.isfinite(errors)
+    finite = np.isfinite(errors).all()
+    low, high = error_interval(errors) if finite else (math.nan, math.nan)
     return {
         **row,
         "params": result.params,
-        "predicted_rmse": float(np.mean(errors)) if finite.all() else math.nan,
-        "spread": float(np.std(errors)) if finite.all() else math.nan,
+        "predicted_rmse": float(np.mean(errors)) if finite else math.nan,
+        "spread": float(np.std(errors)) if finite else math.nan,
+        "low": low,
+        "high": high,
         "coverage": float(np.mean(coverage)) if coverage else math.nan,
         "seconds": time.perf_counter() - start,
     }
@@ -417,6 +465,10 @@ def write_recommendation(record, results, out: Path) -> list[Path]:
                 f"{m:.4g} ± {s:.2g}" if np.isfinite(m) else "—"
                 for m, s in zip(table["predicted_rmse"], table["spread"], strict=True)
             ],
+            f"{INTERVAL * 100:.0f} % of records": [
+                f"{low:.3g} to {high:.3g}" if np.isfinite(low) else "—"
+                for low, high in zip(table["low"], table["high"], strict=True)
+            ],
             "coverage": [f"{c:.3f}" if np.isfinite(c) else "—" for c in table["coverage"]],
             "package": table["package"],
         }
@@ -424,7 +476,10 @@ def write_recommendation(record, results, out: Path) -> list[Path]:
     note = (
         "Each method tuned on surrogate records with the record's spectrum and a known truth "
         f"({TUNING_SURROGATES}), scored on {SCORING_SURROGATES} others: the predicted RMSE "
-        "is their mean ± standard deviation, on all but the first and last 5 % of the record, "
+        "is their mean ± standard deviation, and the record's own error lies within the "
+        f"next column's interval for {INTERVAL * 100:.0f} % of records like it (their "
+        "errors' prediction interval, taken as log-normal), on all but the first and last "
+        "5 % of the record, "
         "every one as the method estimates it: the samples flagged 1 in derivatives.csv's "
         "`_valid` columns. The others (the ends a "
         "method estimates, often many times worse than its middle) are written but flagged 0: "

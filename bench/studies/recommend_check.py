@@ -17,7 +17,7 @@ from diffbench import methods, signals
 from diffbench.bench.core.scores import error_metrics
 from diffbench.bench.core.tuning import tune
 from diffbench.bench.report.tables import markdown_table
-from diffbench.bench.studies.recommend import REGION, _settings, recommend
+from diffbench.bench.studies.recommend import INTERVAL, REGION, _settings, recommend
 
 VALIDATION_METHODS = (
     "spectral",
@@ -29,6 +29,16 @@ VALIDATION_METHODS = (
 )
 """The methods the validation recommends among by default: the native ones that tune in
 seconds (the Gaussian processes, Jacobi and the peers take minutes per record)."""
+
+
+EXPECTED_DRAWS = 32
+"""Further noise draws of a scenario (the seeds after the record's) on which the recommended
+setting and the oracle's are scored too: the error to expect, which a prediction is of, and
+how far one record's own error lies from it."""
+
+CLOSE = 0.2
+"""A prediction within this fraction of the truth counts as close (the ±20 % of the summary
+lines)."""
 
 
 def validation_scenarios() -> list[str]:
@@ -53,9 +63,15 @@ def validate(scenario: str, names=VALIDATION_METHODS, seed: int = 0, max_evaluat
     Beside it, PyNumDiff's data-only tuning (its loss, :func:`~diffbench.bench.core.tuning.
     no_truth_loss`, with its weight γ from a bandlimit guess: the band ``recommend`` read off
     the periodogram) tunes each of ``names`` and picks the one of lowest loss: its true RMSE
-    (``pynumdiff_*`` columns). Both ratios to the best known: :func:`with_best_known`."""
+    (``pynumdiff_*`` columns). Both ratios to the best known: :func:`with_best_known`.
 
-    realisation = signals.get_scenario(scenario).realise(seed)
+    Against the error to expect: the recommended setting and the best oracle-tuned one scored
+    on :data:`EXPECTED_DRAWS` further noise draws of the scenario (``expected_rmse`` with its
+    standard deviation ``expected_spread``, and ``oracle_expected_rmse``), with the predicted
+    interval ``low``..``high`` for the record's own error."""
+
+    drawn = signals.get_scenario(scenario)
+    realisation = drawn.realise(seed)
     if not getattr(realisation, "uniform", True):
         raise ValueError(f"{scenario}: irregular time stamps are not validated yet")
     start = time.perf_counter()
@@ -70,6 +86,7 @@ def validate(scenario: str, names=VALIDATION_METHODS, seed: int = 0, max_evaluat
         scored=realisation.interior,
     )
     guess_hz = advice.spectrum.band_hz
+    further = [drawn.realise(seed + 1 + k) for k in range(EXPECTED_DRAWS)]
     rows = []
     for order in (1, 2):
         name, params = advice.best(order)
@@ -86,7 +103,7 @@ def validate(scenario: str, names=VALIDATION_METHODS, seed: int = 0, max_evaluat
                     "oracle",
                     max_evaluations=max_evaluations,
                     region=REGION,
-                ).loss
+                )
             except ValueError:
                 continue
             if guess_hz > 0:
@@ -102,8 +119,10 @@ def validate(scenario: str, names=VALIDATION_METHODS, seed: int = 0, max_evaluat
                     )
                 except ValueError:
                     pass
-        best = min(oracle, key=oracle.get)
+        best = min(oracle, key=lambda candidate: oracle[candidate].loss)
         true = _true_rmse(realisation, name, params, order)
+        expected = [_true_rmse(other, name, params, order) for other in further]
+        oracle_expected = [_true_rmse(other, best, oracle[best].params, order) for other in further]
         row = {
             "scenario": scenario,
             "seed": seed,
@@ -113,9 +132,14 @@ def validate(scenario: str, names=VALIDATION_METHODS, seed: int = 0, max_evaluat
             "recommended": name,
             "params": _settings(params),
             "predicted_rmse": predicted["predicted_rmse"],
+            "low": predicted["low"],
+            "high": predicted["high"],
             "true_rmse": true,
+            "expected_rmse": float(np.mean(expected)),
+            "expected_spread": float(np.std(expected)),
             "oracle_best": best,
-            "oracle_rmse": oracle[best],
+            "oracle_rmse": oracle[best].loss,
+            "oracle_expected_rmse": float(np.mean(oracle_expected)),
             "pynumdiff_choice": "",
             "pynumdiff_params": "",
             "pynumdiff_rmse": math.nan,
@@ -149,6 +173,54 @@ def with_best_known(row: dict) -> dict:
     }
 
 
+def _close(ratios: pd.Series) -> int:
+    """How many of ``ratios`` (predicted over true) are within :data:`CLOSE` of 1."""
+    return int(np.count_nonzero((ratios >= 1 - CLOSE) & (ratios <= 1 + CLOSE)))
+
+
+def _expectation_line(symbol: str, group: pd.DataFrame) -> str:
+    """The summary line of one order against the error to expect: the prediction over it,
+    the record's own error over it (the closest a prediction of it can come to each record),
+    the predicted interval's hold on the record's own error (records whose every noise draw
+    is the same, and so every surrogate, have an interval of no width: counted apart), and
+    the recommended setting over the oracle's, both over the further draws."""
+    expected = group["expected_rmse"]
+    predicted = (group["predicted_rmse"] / expected).replace(np.inf, np.nan).dropna()
+    own = (group["true_rmse"] / expected).replace(np.inf, np.nan).dropna()
+    fixed = group["expected_spread"] == 0  # every draw the same record
+    noisy = group[~fixed]
+    held = int(
+        np.count_nonzero(
+            (noisy["low"] <= noisy["true_rmse"]) & (noisy["true_rmse"] <= noisy["high"])
+        )
+    )
+    off = (group.loc[fixed, "predicted_rmse"] / group.loc[fixed, "true_rmse"] - 1).abs()
+    over_oracle = (expected / group["oracle_expected_rmse"]).replace(np.inf, np.nan).dropna()
+    close = f"±{CLOSE * 100:.0f} %"
+    line = (
+        f"- {symbol} against the error to expect (the mean over {EXPECTED_DRAWS} further "
+        f"noise draws of the scenario): predicted over expected {predicted.min():.3g} to "
+        f"{predicted.max():.3g} (median {predicted.median():.3g}), within {close} on "
+        f"{_close(predicted)} of {len(predicted)}; the record's own error within {close} "
+        f"of its expected on {_close(own)} of {len(own)} (what a perfect prediction of the "
+        f"error to expect would reach); the predicted {INTERVAL * 100:.0f} % interval holds the "
+        f"record's own error on {held} of {len(noisy)} records"
+    )
+    if len(off):
+        line += (
+            f"; {len(off)} more, whose noise is the same in every draw (and so every "
+            f"surrogate's), are predicted to within {off.max() * 100:.2g} %"
+        )
+    if len(over_oracle):
+        worst = over_oracle.idxmax()
+        line += (
+            f"; the recommended setting over the oracle's, both over the further draws: "
+            f"median {over_oracle.median():.3g}, worst {over_oracle.max():.3g} "
+            f"({group.loc[worst, 'scenario']})"
+        )
+    return line
+
+
 def _true_rmse(realisation, name: str, params: dict, order: int) -> float:
     estimate = methods.get(name, **params)(realisation.x, realisation.dt_s, (order,))
     scored = realisation.interior
@@ -177,7 +249,7 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
         )
         finite = accuracy[group.index].replace(np.inf, np.nan).dropna()
         if len(finite):
-            within = int(np.count_nonzero((finite >= 0.8) & (finite <= 1.2)))
+            within = _close(finite)
             line += (
                 f"; predicted over true RMSE {finite.min():.3g} to {finite.max():.3g} "
                 f"(median {finite.median():.3g}), within ±20 % on {within} of {len(finite)}"
@@ -189,6 +261,9 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
                 f"{peer.max():.3g} ({group.loc[peer.idxmax(), 'scenario']}), over {len(peer)}"
             )
         lines.append(line)
+        if "expected_rmse" in group:
+            lines.append(_expectation_line(symbol, group))
+    expected = frame.get("expected_rmse", pd.Series(np.nan, index=frame.index))
     shown = pd.DataFrame(
         {
             "scenario": frame["scenario"],
@@ -200,6 +275,16 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
             "predicted": frame["predicted_rmse"].map("{:.4g}".format),
             "true": frame["true_rmse"].map("{:.4g}".format),
             "predicted / true": accuracy.map("{:.3g}".format),
+            f"{INTERVAL * 100:.0f} % interval": [
+                f"{low:.3g} to {high:.3g}" if np.isfinite(low) else "—"
+                for low, high in zip(
+                    frame.get("low", expected * np.nan),
+                    frame.get("high", expected * np.nan),
+                    strict=True,
+                )
+            ],
+            "expected": expected.map("{:.4g}".format),
+            "predicted / expected": (frame["predicted_rmse"] / expected).map("{:.3g}".format),
             "oracle-tuned best": frame["oracle_best"]
             + " "
             + frame["oracle_rmse"].map("{:.4g}".format),
@@ -222,7 +307,11 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
         "**PyNumDiff's choice**: each method tuned by PyNumDiff's data-only loss (RMSE of the "
         "re-integrated derivative + γ·TV, γ from its heuristic given the band `recommend` "
         "read off the periodogram as the cutoff guess), the one of lowest loss, its true RMSE "
-        "and ratio to the same best known. Methods offered: " + ", ".join(names) + "."
+        "and ratio to the same best known. **expected**: the recommended setting's mean "
+        f"true RMSE over {EXPECTED_DRAWS} further noise draws of the scenario (the error to "
+        "expect, which the prediction is of); **interval**: where `recommend` predicts the "
+        f"record's own error lies for {INTERVAL * 100:.0f} % of records like it. "
+        "Methods offered: " + ", ".join(names) + "."
     )
     (out / "validation.md").write_text(
         "\n".join(lines) + "\n\n" + markdown_table(shown) + "\n\n" + note + "\n"

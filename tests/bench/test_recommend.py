@@ -18,10 +18,11 @@ from diffbench.bench.core.surrogates import (
     fit_lines,
     record_trend,
     spectral_lines,
+    surrogate_model,
     surrogate_records,
 )
 from diffbench.bench.core.tuning import tune
-from diffbench.bench.studies.recommend import recommend
+from diffbench.bench.studies.recommend import error_interval, recommend
 
 
 @pytest.fixture(scope="module")
@@ -377,3 +378,52 @@ def test_a_long_record_is_tuned_on_the_middle_of_its_surrogates(monkeypatch):
     assert lengths == [module.tuning_length(band, record.dt_s)] * module.TUNING_SURROGATES
     assert lengths[0] < n
     assert np.isfinite(result.table["predicted_rmse"]).all()
+
+
+def test_further_scoring_surrogates_come_in_a_batch_that_leaves_the_first_as_it_is(paper):
+    """``recommend`` draws its tuning surrogates and the first scoring ones as
+    ``surrogate_records`` does, and the other scoring ones in a batch of their own: the first
+    batch is ``surrogate_records``' draws bit for bit, the second is new noise and a new
+    continuum window on the same lines, and each batch draws the same again."""
+    spectrum = record_spectrum(paper.x, paper.dt_s)
+    model = surrogate_model(spectrum, paper.x, paper.dt_s)
+    first = model.draw(6, seed=3)
+    for drawn, kept in zip(
+        first, surrogate_records(spectrum, paper.x, paper.dt_s, 6, seed=3), strict=True
+    ):
+        np.testing.assert_array_equal(drawn.x, kept.x)
+        for order in range(3):
+            np.testing.assert_array_equal(drawn.truth[order], kept.truth[order])
+    second = model.draw(4, seed=3, batch=1)
+    again = model.draw(4, seed=3, batch=1)
+    for drawn, same in zip(second, again, strict=True):
+        np.testing.assert_array_equal(drawn.x, same.x)
+    # another batch: fresh noise (less the record's 200 Hz disturbance, which every
+    # surrogate keeps as fitted) uncorrelated with the first's: |r| < 4/sqrt(n)
+    for drawn, other in zip(second, first[:4], strict=True):
+        r = np.corrcoef(drawn.noise - model.disturbance, other.noise - model.disturbance)[0, 1]
+        assert abs(r) < 4 / np.sqrt(paper.x.size)
+
+
+def test_the_error_interval_holds_one_more_log_normal_draw_as_often_as_it_says():
+    """The interval from 16 log-normal errors holds a 17th from the same law with probability
+    0.9 (Student's prediction interval on the logarithms). Over 20000 trials the share is
+    0.9 within 4 binomial standard deviations (0.0085); the normal quantile with the sample's
+    own spread (no t, no sqrt(1 + 1/n)) holds it about 0.857 of the time, outside that."""
+    rng = np.random.default_rng(11)
+    trials, count = 20000, 16
+    logs = rng.normal(-2.0, 0.3, size=(trials, count + 1))
+    held = 0
+    for row in np.exp(logs):
+        low, high = error_interval(row[:count], 0.9)
+        held += low <= row[count] <= high
+    assert abs(held / trials - 0.9) <= 4 * np.sqrt(0.9 * 0.1 / trials)
+
+
+def test_the_error_interval_of_equal_or_zero_errors():
+    """Equal errors give an interval of no width at them; errors of 0 (an exact method)
+    count as the smallest positive float, not as log(0)."""
+    low, high = error_interval([0.25] * 16)
+    assert low == pytest.approx(0.25, rel=1e-14) and high == pytest.approx(0.25, rel=1e-14)
+    low, high = error_interval([0.0] * 16)
+    assert 0.0 < low <= high <= 1e-300
