@@ -94,6 +94,9 @@ interval says how far it may be (:func:`error_interval`)."""
 FAILED = "failed: "
 """How a row of a plugin method that failed begins its ``params`` (the reason follows)."""
 
+PREDICTION_COLUMNS = ("predicted_rmse", "spread", "low", "high", "coverage")
+"""The columns of a row that its scoring on the surrogates fills (NaN when it could not)."""
+
 COLUMNS = (
     "order",
     "rank",
@@ -262,6 +265,14 @@ def error_interval(errors, probability: float = INTERVAL) -> tuple[float, float]
     return math.exp(centre - width), math.exp(centre + width)
 
 
+def interval_cells(lows, highs) -> list[str]:
+    """Table cells of the intervals ``lows``..``highs`` ("—" where there is none)."""
+    return [
+        f"{low:.3g} to {high:.3g}" if np.isfinite(low) else "—"
+        for low, high in zip(lows, highs, strict=True)
+    ]
+
+
 def record_scale(x: np.ndarray) -> float:
     """Half the range of the finite record ``x``, max/2 − min/2 (no overflow up to the
     largest float); its largest magnitude if that is 0 (a constant), 1 for zeros."""
@@ -305,9 +316,7 @@ def _tuned_and_scored(name, order, tuning, scoring, max_evaluations, seed, timeo
         reason = plugin_failure(name, error)
         if reason is None:
             raise
-    failed = dict.fromkeys(
-        ("predicted_rmse", "spread", "low", "high", "coverage", "seconds"), math.nan
-    )
+    failed = dict.fromkeys((*PREDICTION_COLUMNS, "seconds"), math.nan)
     row = {"order": order, "method": name, "package": methods.package_of(name)}
     return {**row, **failed, "params": f"{FAILED}{reason}"}
 
@@ -333,7 +342,7 @@ def _tuned_and_scored_row(name, order, tuning, scoring, max_evaluations, seed, t
                 "surrogates (the record may be too short for it)"
             )
     except ValueError as error:
-        failed = dict.fromkeys(("predicted_rmse", "spread", "low", "high", "coverage"), math.nan)
+        failed = dict.fromkeys(PREDICTION_COLUMNS, math.nan)
         return {
             **row,
             **failed,
@@ -465,10 +474,7 @@ def write_recommendation(record, results, out: Path) -> list[Path]:
                 f"{m:.4g} ± {s:.2g}" if np.isfinite(m) else "—"
                 for m, s in zip(table["predicted_rmse"], table["spread"], strict=True)
             ],
-            f"{INTERVAL * 100:.0f} % of records": [
-                f"{low:.3g} to {high:.3g}" if np.isfinite(low) else "—"
-                for low, high in zip(table["low"], table["high"], strict=True)
-            ],
+            f"{INTERVAL * 100:.0f} % of records": interval_cells(table["low"], table["high"]),
             "coverage": [f"{c:.3f}" if np.isfinite(c) else "—" for c in table["coverage"]],
             "package": table["package"],
         }

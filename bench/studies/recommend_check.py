@@ -17,7 +17,13 @@ from diffbench import methods, signals
 from diffbench.bench.core.scores import error_metrics
 from diffbench.bench.core.tuning import tune
 from diffbench.bench.report.tables import markdown_table
-from diffbench.bench.studies.recommend import INTERVAL, REGION, _settings, recommend
+from diffbench.bench.studies.recommend import (
+    INTERVAL,
+    REGION,
+    _settings,
+    interval_cells,
+    recommend,
+)
 
 VALIDATION_METHODS = (
     "spectral",
@@ -173,6 +179,11 @@ def with_best_known(row: dict) -> dict:
     }
 
 
+def _finite(ratios: pd.Series) -> pd.Series:
+    """``ratios`` less the infinite and NaN ones (a method that left a scored sample out)."""
+    return ratios.replace([np.inf, -np.inf], np.nan).dropna()
+
+
 def _close(ratios: pd.Series) -> int:
     """How many of ``ratios`` (predicted over true) are within :data:`CLOSE` of 1."""
     return int(np.count_nonzero((ratios >= 1 - CLOSE) & (ratios <= 1 + CLOSE)))
@@ -185,8 +196,8 @@ def _expectation_line(symbol: str, group: pd.DataFrame) -> str:
     is the same, and so every surrogate, have an interval of no width: counted apart), and
     the recommended setting over the oracle's, both over the further draws."""
     expected = group["expected_rmse"]
-    predicted = (group["predicted_rmse"] / expected).replace(np.inf, np.nan).dropna()
-    own = (group["true_rmse"] / expected).replace(np.inf, np.nan).dropna()
+    predicted = _finite(group["predicted_rmse"] / expected)
+    own = _finite(group["true_rmse"] / expected)
     fixed = group["expected_spread"] == 0  # every draw the same record
     noisy = group[~fixed]
     held = int(
@@ -195,7 +206,7 @@ def _expectation_line(symbol: str, group: pd.DataFrame) -> str:
         )
     )
     off = (group.loc[fixed, "predicted_rmse"] / group.loc[fixed, "true_rmse"] - 1).abs()
-    over_oracle = (expected / group["oracle_expected_rmse"]).replace(np.inf, np.nan).dropna()
+    over_oracle = _finite(expected / group["oracle_expected_rmse"])
     close = f"±{CLOSE * 100:.0f} %"
     line = (
         f"- {symbol} against the error to expect (the mean over {EXPECTED_DRAWS} further "
@@ -247,7 +258,7 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
             f"{group['ratio'].median():.3g}, worst {group['ratio'].max():.3g} "
             f"({group.loc[group['ratio'].idxmax(), 'scenario']}), over {len(group)} scenarios"
         )
-        finite = accuracy[group.index].replace(np.inf, np.nan).dropna()
+        finite = _finite(accuracy[group.index])
         if len(finite):
             within = _close(finite)
             line += (
@@ -275,14 +286,9 @@ def write_validation(rows, out: Path, names=VALIDATION_METHODS) -> list[Path]:
             "predicted": frame["predicted_rmse"].map("{:.4g}".format),
             "true": frame["true_rmse"].map("{:.4g}".format),
             "predicted / true": accuracy.map("{:.3g}".format),
-            f"{INTERVAL * 100:.0f} % interval": [
-                f"{low:.3g} to {high:.3g}" if np.isfinite(low) else "—"
-                for low, high in zip(
-                    frame.get("low", expected * np.nan),
-                    frame.get("high", expected * np.nan),
-                    strict=True,
-                )
-            ],
+            f"{INTERVAL * 100:.0f} % interval": interval_cells(
+                frame.get("low", expected * np.nan), frame.get("high", expected * np.nan)
+            ),
             "expected": expected.map("{:.4g}".format),
             "predicted / expected": (frame["predicted_rmse"] / expected).map("{:.3g}".format),
             "oracle-tuned best": frame["oracle_best"]
