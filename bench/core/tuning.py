@@ -174,6 +174,8 @@ class TuningResult:
     evaluations: int
     seconds: float
     history: tuple = field(default=(), repr=False)
+    # seconds from the search's start at which each entry of history was evaluated
+    elapsed: tuple = field(default=(), repr=False)
 
 
 def cutoff_range_hz(
@@ -321,7 +323,7 @@ def tune(
         else None
     )
     cache: dict[tuple, float] = {}
-    history = []
+    history, elapsed = [], []
     # the oracle's losses are compared on a grid of 1e-9 x the RMS of the true derivative
     scale = (
         float(np.sqrt(np.mean(first.truth[order][scored[0]] ** 2)))
@@ -402,6 +404,7 @@ def tune(
         value = comparable_loss(value, scale)
         cache[key] = value
         history.append((params, value))
+        elapsed.append(time.perf_counter() - start)
         return value
 
     start = time.perf_counter()
@@ -422,6 +425,7 @@ def tune(
         evaluations=len(cache),
         seconds=time.perf_counter() - start,
         history=tuple(history),
+        elapsed=tuple(elapsed),
     )
 
 

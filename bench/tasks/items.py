@@ -28,7 +28,7 @@ import pandas as pd
 
 from diffbench import methods, signals
 from diffbench.bench.core import tuning
-from diffbench.bench.studies import paper, pareto, recommend_check, timing
+from diffbench.bench.studies import paper, pareto, ratios, recommend_check, timing
 from diffbench.bench.tasks.base import Task
 
 
@@ -208,8 +208,9 @@ RATIOS = "speed-ratios"
 class TimingStudy(ItemStudy):
     """Throughput and peak memory of each method (an item) on records up to ``largest_samples``
     long, and with ``ratios`` the speed comparisons with the peers
-    (:mod:`diffbench.bench.studies.timing`). Times measured on parallel workers share the
-    machine: run it with one job for the numbers to quote."""
+    (:mod:`diffbench.bench.studies.timing`, :mod:`diffbench.bench.studies.ratios`). Times
+    measured on parallel workers share the machine: run it with one job for the numbers to
+    quote."""
 
     largest_samples: int = 10_000_000
     ratios: bool = True
@@ -227,16 +228,16 @@ class TimingStudy(ItemStudy):
 
     def compute(self, item):
         if item.name == RATIOS:
-            return _json(timing.speed_ratios().to_dict("records"))
+            return _json(ratios.speed_ratios().to_dict("records"))
         table = timing.throughput(sizes=item.setting["sizes"], names=[item.name])
         return _json(table.to_dict("records"))
 
     def write(self, rows, directory):
         table = [row for item, found in rows.items() if item.name != RATIOS for row in found]
         written = timing.write_throughput(directory, pd.DataFrame(table))
-        ratios = [row for item, found in rows.items() if item.name == RATIOS for row in found]
-        if ratios:
-            written += timing.write_ratios(directory, pd.DataFrame(ratios))
+        compared = [row for item, found in rows.items() if item.name == RATIOS for row in found]
+        if compared:
+            written += ratios.write_ratios(directory, pd.DataFrame(compared))
         return written
 
 

@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from diffbench import methods
-from diffbench.bench.studies import timing
+from diffbench.bench.studies import ratios, timing
 
 
 def test_a_method_capped_below_the_smallest_size_is_timed_at_its_cap(tmp_path, monkeypatch):
@@ -53,20 +53,20 @@ def test_throughput_reports_memory_growth_and_causal_methods(tmp_path):
 
 
 def test_the_speed_ratios_check_that_ours_and_the_peers_agree(tmp_path):
-    kalman = timing.kalman_against_filterpy(samples=50_000, filterpy_samples=2_000, repeats=1)
-    jacobi = timing.jacobi_against_oaconvolve(samples=50_000, repeats=1)
+    kalman = ratios.kalman_against_filterpy(samples=50_000, filterpy_samples=2_000, repeats=1)
+    jacobi = ratios.jacobi_against_oaconvolve(samples=50_000, repeats=1)
     assert kalman["agreement"] < 1e-9  # the same smoothed positions as filterpy's
     assert jacobi["agreement"] < 1e-12  # the same outputs as oaconvolve, relative
     for row in (kalman, jacobi):
         assert row["ratio"] == pytest.approx(row["peer_s"] / row["ours_s"])
-    markdown = timing.write_ratios(tmp_path, pd.DataFrame([kalman, jacobi]))[0].read_text(
+    markdown = ratios.write_ratios(tmp_path, pd.DataFrame([kalman, jacobi]))[0].read_text(
         encoding="utf-8"
     )
     assert (
         "| Kalman smoother, per sample (ours 50,000, filterpy 2,000 samples) | kalman "
         "(paper-signal preset) | filterpy " in markdown
     )
-    same = timing.kalman_against_filterpy(samples=3_000, filterpy_samples=3_000, repeats=1)
+    same = ratios.kalman_against_filterpy(samples=3_000, filterpy_samples=3_000, repeats=1)
     assert same["comparison"] == "Kalman smoother, per sample (both 3,000 samples)"
     assert same["agreement"] < 1e-9
     assert "| Jacobi orders 0-2, one call |" in markdown
@@ -80,7 +80,48 @@ def test_forget_settings_empties_the_per_setting_caches_and_keeps_the_registry()
     _registry.params_of(type(method))
     assert _ends._trusted.cache_info().currsize > 0
     assert butterworth._butter_sos.cache_info().currsize > 0
-    timing.forget_settings()
+    ratios.forget_settings()
     assert _ends._trusted.cache_info().currsize == 0
     assert butterworth._butter_sos.cache_info().currsize == 0
     assert _registry.params_of.cache_info().currsize > 0  # unbounded: not a setting's
+
+
+def test_the_time_to_reach_is_the_first_evaluation_at_most_the_peers_rmse():
+    """From a search's history (losses in the order evaluated, their elapsed seconds): the
+    first at or below the peer's RMSE, not the best nor the last; NaN where none is."""
+    from diffbench.bench.core.tuning import TuningResult
+
+    result = TuningResult(
+        method="m",
+        params={},
+        loss=1.5,
+        criterion="oracle",
+        order=1,
+        evaluations=4,
+        seconds=0.5,
+        history=(({}, 5.0), ({}, 3.0), ({}, 1.5), ({}, 2.0)),
+        elapsed=(0.1, 0.2, 0.3, 0.4),
+    )
+    assert ratios._time_to_reach(result, 3.0) == 0.2
+    assert ratios._time_to_reach(result, 2.5) == 0.3
+    assert np.isnan(ratios._time_to_reach(result, 1.0))
+
+
+def test_a_tunings_elapsed_times_follow_its_history():
+    """Each evaluation of a tuning is stamped once, in order, within the search's time."""
+    from diffbench.bench.core import tuning
+
+    record = ratios._paper_signal_head(1000, 150)
+    result = tuning.tune("savitzky_golay", record, 1, "oracle")
+    assert len(result.elapsed) == len(result.history) == result.evaluations
+    assert all(np.diff(result.elapsed) >= 0) and 0 < result.elapsed[-1] <= result.seconds
+
+
+def test_the_new_setting_row_times_fresh_kalman_settings_against_rtsdiff(tmp_path):
+    pytest.importorskip("pynumdiff")
+    row = ratios.kalman_new_bandwidth(samples=300, settings=3, repeats=1)
+    assert row["ours_s"] > 0 and row["peer_s"] > 0
+    assert row["ratio"] == pytest.approx(row["peer_s"] / row["ours_s"])
+    markdown = ratios.write_ratios(tmp_path, pd.DataFrame([row]))[0].read_text(encoding="utf-8")
+    assert "| Kalman smoother, a new setting (300 samples) |" in markdown
+    assert "| s per setting |" in markdown and "| — | — |" in markdown  # no target, agreement

@@ -1,7 +1,7 @@
-"""The Kalman smoother against filterpy's own filter and smoother, by recursions and by
-blocks (long records), its transient step by step and by block maps (the cached prior's)."""
+"""The Kalman smoother against filterpy's own filter and smoother, with the gains of the
+covariance recursion run for the record and with the cached prior's (their step tables), and
+its compiled loops against themselves: padded to either width, channel by channel."""
 
-import dataclasses
 import math
 
 import numpy as np
@@ -35,24 +35,15 @@ def _filterpy(z, model, mean0, covariance0):
     return smoothed[:, :, 0]
 
 
-@pytest.fixture(params=["recursions", "blocks"])
-def steady_path(request, monkeypatch):
-    """Runs a test with the steady part by recursions (short records), and again by blocks
-    (:func:`kalman._blocked_steady_passes`, long records) from 33 steady samples on."""
-    if request.param == "blocks":
-        monkeypatch.setattr(kalman, "BLOCKED_FROM", 1)
-    return request.param
-
-
-@pytest.fixture(params=["steps", "maps"])
+@pytest.fixture(params=["recursion", "prior"])
 def transient_path(request):
-    """Runs a test with the transient stepped sample by sample (the recursion run for the
-    record), and again by the block maps of :func:`kalman.prior_gains` (the cached prior's
-    gains, as the method runs; on records longer than the transient)."""
+    """Runs a test with the gains of the covariance recursion run for the record, and again
+    with :func:`kalman.prior_gains`' (the cached prior's, with their step tables, as the
+    method runs on records of 4m samples or more)."""
     return request.param
 
 
-def _fast_and_filterpy(model_order, n, bandwidth_hz, dt, transient_path="steps"):
+def _fast_and_filterpy(model_order, n, bandwidth_hz, dt, transient_path="recursion"):
     """The smoothed states of a noisy sine plus parabola by rts_smooth and by filterpy."""
     rng = np.random.default_rng(n + model_order)
     t = np.arange(n) * dt
@@ -60,12 +51,11 @@ def _fast_and_filterpy(model_order, n, bandwidth_hz, dt, transient_path="steps")
     model = polynomial_model(model_order, dt, bandwidth_hz)
     mean0, covariance0 = initial_state(z[:, None], model.per_step_coefficient)
     gains = None
-    if transient_path == "maps":
+    if transient_path == "prior":
+        if n < 4 * model.states:
+            pytest.skip("the prior's gains serve records of 4m samples or more")
         gains = kalman.prior_gains(model_order, dt, bandwidth_hz)
-        if n <= len(gains.filter_gains):
-            pytest.skip("the block maps serve records longer than the transient")
-        maps = kalman.transient_maps(gains.filter_gains, gains.smoother_gains, model.F)
-        gains = dataclasses.replace(gains, transient=maps)
+        assert gains.tables
     fast = rts_smooth(z[:, None], model, mean0, covariance0, gains=gains)[:, :, 0]
     reference = _filterpy(z, model, mean0[:, 0], covariance0)
     return fast, reference
@@ -86,9 +76,7 @@ def _fast_and_filterpy(model_order, n, bandwidth_hz, dt, transient_path="steps")
         (3, 1500, 440.0, 1e-3),
     ],
 )
-def test_fast_smoother_equals_filterpy(
-    model_order, n, bandwidth_hz, dt, steady_path, transient_path
-):
+def test_fast_smoother_equals_filterpy(model_order, n, bandwidth_hz, dt, transient_path):
     fast, reference = _fast_and_filterpy(model_order, n, bandwidth_hz, dt, transient_path)
     scale = np.max(np.abs(reference), axis=0)
     # the vague prior (PRIOR_SCALE) leaves the first steps ill-conditioned: both computations
@@ -176,7 +164,7 @@ def test_the_steady_response_is_what_the_time_domain_gives_at_a_low_bandwidth():
         )
 
 
-def test_method_equals_filterpy_in_raw_derivative_units_on_every_channel(steady_path):
+def test_method_equals_filterpy_in_raw_derivative_units_on_every_channel():
     dt = 1e-3
     rng = np.random.default_rng(5)
     x = rng.standard_normal((700, 2)).cumsum(axis=0) * 0.01
@@ -248,60 +236,110 @@ def test_bad_input(params, dt, x, message):
     ("model_order", "bandwidth_hz", "n"),
     [(2, 20.0, 10**6), (3, 300.0, 10**6), (3, 5.0, 37), (2, 1.0, 16)],
 )
-def test_the_recursion_tested_by_blocks_stops_at_the_first_converged_step(
+def test_the_recursion_run_by_chunks_stops_at_the_first_converged_step(
     model_order, bandwidth_hz, n, monkeypatch
 ):
-    """The convergence test on blocks of steps gives the recursion tested step by step, bit
-    for bit: the same number of steps (the first converged one, or n) and the same gains."""
+    """The recursion by chunks of steps gives the recursion run a step a call, bit for bit:
+    the same number of steps (the first converged one, or n) and the same gains."""
     from diffbench.methods import kalman
 
     model = polynomial_model(model_order, 1e-3, bandwidth_hz)
     _, covariance0 = initial_state(np.zeros((16, 1)), model.per_step_coefficient)
     blocks = covariance_recursion(model, covariance0, n)
-    monkeypatch.setattr(kalman, "CONVERGENCE_BLOCK", 1)
+    monkeypatch.setattr(kalman, "RECURSION_CHUNK", 1)
     steps = covariance_recursion(model, covariance0, n)
     assert len(blocks.filter_gains) == len(steps.filter_gains) <= n
     assert np.array_equal(blocks.filter_gains, steps.filter_gains)
     assert np.array_equal(blocks.smoother_gains, steps.smoother_gains)
 
 
-@pytest.mark.parametrize(
-    ("model_order", "bandwidth_hz"), [(3, 24.0), (2, 5.0), (2, 100.0), (3, 300.0)]
-)
-@pytest.mark.parametrize(("n", "channels"), [(33, 1), (34, 1), (65, 2), (1001, 3), (2000, 1)])
-def test_the_blocks_give_the_recursions_values(model_order, bandwidth_hz, n, channels):
-    """The steady part by blocks of 32 against the same by recursions, for records of one
-    block and a tail of 1 or 2 samples up to 62 blocks, one to three channels (the output not
-    contiguous), the components asked in any order: to rounding, and the whole state at k = 0
-    the same.
+def _tables_and_record(model_order, bandwidth_hz, n, channels, width=None):
+    """A noisy sine on ``channels`` channels, its prior, and the step tables of the prior's
+    gains padded to ``width`` (default: the model's own, :func:`_kalman_loops.width`)."""
+    from diffbench.methods import _kalman_loops as loops
 
-    Rounding: both evaluate the same linear map in the eigenbases V (filter) and W (smoother),
-    whose changes of basis amplify a relative error by at most cond(V) cond(W); a first-order
-    recursion with pole |p| accumulates eps per step over about g = 1 / (1 - max|p|) steps on
-    values up to g times its input (eps g^2), and a block's products sum B = 32 terms. So each
-    may differ from the exact map by about eps cond(V) cond(W) (B + g^2) times the output's
-    size; the two are allowed that between them (seen: at most 0.021 of it, under OpenBLAS's
-    SkylakeX, Haswell, Sandybridge and Prescott kernels)."""
-    model = polynomial_model(model_order, 1e-3, bandwidth_hz)
-    steady = steady_state(model.F, model.Q, model.R)
-    rng = np.random.default_rng(n)
-    t = np.arange(n) * 1e-3
+    dt = 1e-3
+    model = polynomial_model(model_order, dt, bandwidth_hz)
+    gains = kalman.prior_gains(model_order, dt, bandwidth_hz)
+    width = width or loops.width(model.states)
+    tables = [
+        np.asarray(loops.padded(table[(..., *(slice(0, model.states),) * axes)], axes, width))
+        for table, axes in zip(gains.tables, (2, 1, 2, 2), strict=True)
+    ]
+    rng = np.random.default_rng(n + channels)
+    t = np.arange(n) * dt
     z = np.sin(2 * np.pi * 3 * t)[:, None] + 0.05 * rng.standard_normal((n, channels))
-    before = rng.standard_normal((model.states, channels))
-    components = [2, 0, 1] if channels > 1 else list(range(model.states))
-    expected, expected_state = kalman._steady_passes(z, steady, model.F, before, components)
-    blocks = np.full((len(components), n, channels), np.nan)
-    state = kalman._blocked_steady_passes(z, steady, model.F, before, components, blocks)
-    modes = kalman._smoother_modes(steady, model.F)
-    growth = 1 / (1 - max(np.abs(modes.poles).max(), np.abs(modes.poles_c).max()))
-    condition = np.linalg.cond(modes.vectors) * np.linalg.cond(modes.vectors_c)
-    relative = np.finfo(float).eps * condition * (kalman.BLOCK_STEPS + growth**2)
-    for row in range(len(components)):
-        scale = np.max(np.abs(expected[row]))
-        np.testing.assert_allclose(blocks[row], expected[row], rtol=0, atol=relative * scale)
-    np.testing.assert_allclose(
-        state, expected_state, rtol=0, atol=relative * np.max(np.abs(expected_state))
-    )
+    mean0, _ = initial_state(z, model.per_step_coefficient)
+    return z, loops.padded(mean0.T, 1, width), tables, model.states
+
+
+@pytest.mark.parametrize(("model_order", "bandwidth_hz"), [(2, 5.0), (3, 24.0), (3, 300.0)])
+@pytest.mark.parametrize("n", [16, 300, 2000])
+def test_a_model_padded_to_six_states_gives_the_bits_of_four(model_order, bandwidth_hz, n):
+    """The compiled loop of 6 states on a model of 3 or 4 padded with zeros gives the bits of
+    the loop of 4: each row's sum adds exact zero products (the wide loop's only other
+    difference), so the two are equal bit for bit, not merely to rounding; and the padded
+    states stay zero."""
+    from diffbench.methods import _kalman_loops as loops
+
+    z, start, tables, states = _tables_and_record(model_order, bandwidth_hz, n, 2)
+    narrow = loops.smooth(z.T, start, *tables)
+    z, start, tables, _ = _tables_and_record(model_order, bandwidth_hz, n, 2, width=6)
+    wide = loops.smooth(z.T, start, *tables)
+    assert np.array_equal(wide[:, :, :4], narrow)
+    assert not wide[:, :, states:].any()
+
+
+@pytest.mark.parametrize(("model_order", "bandwidth_hz"), [(3, 24.0), (5, 20.0)])
+def test_a_channel_gives_the_same_bits_alone_and_among_many(model_order, bandwidth_hz):
+    """A channel's smoothed states do not depend on the channels beside it (the ends check
+    smooths a hundred probes at once, a call one record): the first of 112 channels, smoothed
+    alone, bit for bit; and the components are the states asked, in the order asked."""
+    dt = 1e-3
+    model = polynomial_model(model_order, dt, bandwidth_hz)
+    gains = kalman.prior_gains(model_order, dt, bandwidth_hz)
+    n = len(gains.filter_gains) + 500
+    z = _tables_and_record(model_order, bandwidth_hz, n, 112)[0]
+    mean0, covariance0 = initial_state(z, model.per_step_coefficient)
+    many = rts_smooth(z, model, mean0, covariance0, components=[2, 0, 1], gains=gains)
+    alone = rts_smooth(z[:, :1], model, mean0[:, :1], covariance0, gains=gains)
+    assert np.array_equal(many[:, :, 0], alone[:, [2, 0, 1], 0])
+
+
+@pytest.mark.parametrize(
+    ("model_order", "bandwidth_hz", "dt"), [(2, 20.0, 1e-3), (3, 24.0, 1e-3), (5, 2.0, 0.01)]
+)
+def test_the_compiled_covariance_steps_give_filterpys_gains(model_order, bandwidth_hz, dt):
+    """Every step's filter gain K_k (from filterpy's predicted covariances: P⁻H/(HP⁻Hᵀ + R))
+    and smoother gain C_k (``rts_smoother``'s own) against the compiled recursion's, over the
+    whole transient from the vague prior. Both round differently from the ill-conditioned
+    prior on (the smoothed states agree within 1e-8 of their size, or eps cond(VᵀV) at orders
+    4 and 5: the tests above), so the gains are held to as much of their size; and the last
+    step's gain is within CONVERGED (or the rounding floor) of the steady one."""
+    from filterpy.kalman import KalmanFilter
+
+    model = polynomial_model(model_order, dt, bandwidth_hz)
+    _, covariance0 = initial_state(np.zeros((16, 1)), model.per_step_coefficient)
+    gains = covariance_recursion(model, covariance0, 10**6)
+    steps = len(gains.filter_gains)
+    kf = KalmanFilter(dim_x=model.states, dim_z=1)
+    kf.F, kf.Q, kf.R, kf.H = model.F, model.Q, np.array([[model.R]]), np.eye(1, model.states)
+    kf.x, kf.P = np.zeros((model.states, 1)), covariance0.copy()
+    means, covariances, _, predicted = kf.batch_filter(np.zeros(steps + 1))
+    filter_gains = predicted[:, :, 0] / (predicted[:, 0, 0] + model.R)[:, None]
+    _, _, smoother_gains, _ = kf.rts_smoother(means, covariances)
+    vandermonde = np.arange(1.0, 4 * model.states + 1)[:, None] ** np.arange(model.states)
+    relative = max(1e-8, np.finfo(float).eps * np.linalg.cond(vandermonde.T @ vandermonde))
+    for ours, theirs in (
+        (gains.filter_gains, filter_gains),
+        (gains.smoother_gains, smoother_gains),
+    ):
+        scale = np.abs(theirs[:steps]).max()
+        np.testing.assert_allclose(ours, theirs[:steps], rtol=0, atol=relative * scale)
+    steady = gains.steady.filter_gain
+    reach = model.F[0, 1]
+    allowed = max(CONVERGED, ROUNDING / reach**2) * np.abs(steady).max()
+    assert np.abs(gains.filter_gains[-1] - steady).max() <= allowed
 
 
 def test_a_steady_part_of_one_sample_is_smoothed():
@@ -384,92 +422,3 @@ def test_the_higher_orders_reproduce_their_polynomials_on_every_estimated_sample
             / dt**order
         )
         np.testing.assert_allclose(estimate[order], truth, rtol=0, atol=allowed)
-
-
-@pytest.mark.parametrize(("model_order", "bandwidth_hz"), [(2, 20.0), (3, 24.0), (5, 200.0)])
-def test_the_transient_maps_are_the_steps_composed(model_order, bandwidth_hz):
-    """Each block map applied to a basis vector is the recursion stepped through the block
-    from it: Φ_i e_l the filter's i-th state from ŝ_{a-1} = e_l and no data, Ψ_ij the one from
-    a unit sample at a + j; Γ_i, Ω_ij likewise backward. Each is a product of at most B
-    matrices (rounding eps per product and entry, over entries summed with their absolute
-    values: within B m eps times the product of the absolute matrices)."""
-    dt = 1e-3
-    gains = kalman.prior_gains(model_order, dt, bandwidth_hz)
-    model = polynomial_model(model_order, dt, bandwidth_hz)
-    m, F = model.states, model.F
-    maps = kalman.transient_maps(gains.filter_gains, gains.smoother_gains, F)
-    for block in sorted({min(1, len(maps.forward_state) - 1), len(maps.forward_state) - 1}):
-        _check_block(gains, F, m, maps, block)  # the second (a full one) and the last
-
-
-def _check_block(gains, F, m, maps, block):
-    """One block of :func:`kalman.transient_maps` against its steps (see the test above)."""
-    a = kalman.TRANSIENT_BLOCK * block
-    size = maps.forward_state[block].shape[0]
-    transitions = [F - np.outer(gains.filter_gains[a + i], F[0]) for i in range(size)]
-    smoother = [gains.smoother_gains[a + i] for i in range(size)]
-    eps = np.finfo(float).eps
-    bound_forward, bound_backward = np.eye(m), np.eye(m)
-    for i in range(size):
-        bound_forward = np.abs(transitions[i]) @ bound_forward
-        state = np.eye(m)
-        for k in range(i + 1):
-            state = transitions[k] @ state
-        tolerance = size * m * eps * bound_forward
-        assert np.all(np.abs(maps.forward_state[block][i] - state) <= tolerance)
-        for j in range(i + 1):
-            column = gains.filter_gains[a + j]
-            for k in range(j + 1, i + 1):
-                column = transitions[k] @ column
-            np.testing.assert_allclose(
-                maps.forward_data[block][i, :, j], column, rtol=0, atol=tolerance.max()
-            )
-    last = size - 1
-    for i in range(last, -1, -1):
-        bound_backward = np.abs(smoother[i]) @ bound_backward
-        state = np.eye(m)
-        for k in range(last, i - 1, -1):
-            state = smoother[k] @ state
-        tolerance = size * m * eps * bound_backward
-        assert np.all(np.abs(maps.backward_state[block][i] - state) <= tolerance)
-        own = np.eye(m) - smoother[i] @ F
-        np.testing.assert_array_equal(maps.backward_data[block][i, :, i], own)
-        for j in range(i + 1, size):
-            through = np.eye(m) - smoother[j] @ F
-            for k in range(j - 1, i - 1, -1):
-                through = smoother[k] @ through
-            scale = np.abs(through).max() + np.abs(own).max()
-            np.testing.assert_allclose(
-                maps.backward_data[block][i, :, j], through, rtol=0, atol=tolerance.max() * scale
-            )
-
-
-def test_cached_gains_run_their_maps_on_few_channels_and_short_transients_only():
-    """Records of a few channels, longer than a transient of at most MAPS_MAX_STEPS steps, run
-    it by the cached block maps; many channels or a longer transient step: a rule on the call
-    alone, so the same call gives the same bits before and after the maps exist, and the
-    maps' memory stays bounded (a transient of 8276 steps at order 5 would hold 94 MB)."""
-    dt, bandwidth_hz = 1e-3, 37.0
-    kalman._maps_of_prior.cache_clear()
-    gains = kalman.prior_gains(3, dt, bandwidth_hz)
-    assert len(gains.filter_gains) <= kalman.MAPS_MAX_STEPS
-    model = polynomial_model(3, dt, bandwidth_hz)
-    rng = np.random.default_rng(1)
-    n = len(gains.filter_gains) + 300
-
-    def smoothed(channels):
-        z = np.sin(np.arange(n) * 0.01)[:, None] + 0.01 * rng.standard_normal((n, channels))
-        mean0, covariance0 = initial_state(z, model.per_step_coefficient)
-        return lambda: rts_smooth(z, model, mean0, covariance0, gains=gains)
-
-    wide = smoothed(kalman.MAPS_MAX_CHANNELS + 1)
-    before = wide()
-    assert kalman._maps_of_prior.cache_info().currsize == 0
-    narrow = smoothed(kalman.MAPS_MAX_CHANNELS)
-    first = narrow()
-    assert kalman._maps_of_prior.cache_info().currsize == 1
-    assert np.array_equal(narrow(), first) and np.array_equal(wide(), before)
-    long = kalman.prior_gains(5, dt, 2.0)  # a transient of thousands of steps
-    assert len(long.filter_gains) > kalman.MAPS_MAX_STEPS
-    assert kalman._cached_maps(long, 1) is None
-    assert kalman.covariance_recursion(model, gains.steady.covariance, 10).key is None

@@ -1,4 +1,5 @@
-"""The Kalman smoother beside filterpy's batch_filter + rts_smoother, per sample.
+"""The Kalman smoother beside filterpy's batch_filter + rts_smoother, per sample; a tuning
+evaluation at a new setting beside PyNumDiff's rtsdiff.
 
 Equal lengths first (group ``kalman-1e4``: both on 1e4 samples, the length of users'
 records and of every tuning; target: the method >= 1000x faster), then per sample on long
@@ -10,7 +11,8 @@ import numpy as np
 import pytest
 
 from diffbench import methods
-from diffbench.bench.studies.timing import filterpy_smoother, noisy_sine
+from diffbench.bench.studies.ratios import filterpy_smoother
+from diffbench.bench.studies.timing import noisy_sine
 from diffbench.methods.kalman import initial_state
 
 DT = 1e-3
@@ -80,3 +82,41 @@ def test_filterpy_batch_filter_and_rts_smoother_2e4(benchmark, kalman):
     valid = ours.valid[0]  # the ends outside the method's own accuracy are masked
     assert valid.mean() > 0.9
     np.testing.assert_allclose(ours[0][valid], smoothed[valid, 0], rtol=0, atol=1e-9)
+
+
+NEW_SETTINGS = iter(np.geomspace(20.0, 30.0, 100_000))
+"""Bandwidths never used before, one per timed call (no call finds its setting's gains,
+steady state or ends check already computed)."""
+
+
+@pytest.mark.benchmark(group="kalman-new-setting-1000")
+def test_kalman_at_a_new_bandwidth_1000(benchmark):
+    """One tuning evaluation of a setting not seen before (covariance recursion, steady state,
+    ends check and the estimate), on the first 1000 samples of the paper signal's seed 0."""
+    from diffbench.bench.studies.ratios import _paper_signal_head
+
+    record = _paper_signal_head(1000, 150)
+    x = np.asarray(record.x)
+    methods.get("kalman", bandwidth_hz=4.9, model_order=3)(x, DT)  # compiled, imported
+
+    def evaluation():
+        return methods.get("kalman", bandwidth_hz=float(next(NEW_SETTINGS)), model_order=3)(x, DT)
+
+    estimate = benchmark(evaluation)
+    inside = np.asarray(record.interior)
+    assert estimate.valid[1][inside].all()
+    error = estimate[1][inside] - np.asarray(record.truth[1])[inside]
+    assert np.sqrt(np.mean(error**2)) < 0.2 * np.sqrt(np.mean(record.truth[1][inside] ** 2))
+
+
+@pytest.mark.benchmark(group="kalman-new-setting-1000")
+def test_pynumdiff_rtsdiff_one_call_1000(benchmark):
+    pynumdiff = pytest.importorskip("pynumdiff")
+    from diffbench.bench.studies.ratios import _paper_signal_head
+
+    record = _paper_signal_head(1000, 150)
+    x = np.asarray(record.x)
+    _, derivative = benchmark(
+        pynumdiff.rtsdiff, x, DT, order=3, log_qr_ratio=8.0, forwardbackward=False
+    )
+    assert derivative.shape == x.shape and np.isfinite(derivative).all()
