@@ -9,15 +9,6 @@ from scipy import signal as sps
 _OVERLAP_ADD_FROM = 32  # taps; shorter kernels are convolved directly
 _SLICED_UP_TO = 3  # taps; up to this many, summed from shifted slices
 
-try:  # scipy's rule for when oaconvolve is one FFT convolution (see _oaconvolve_same)
-    from scipy.signal._signaltools import _calc_oa_lens
-
-    def _one_block(n: int, m: int) -> bool:
-        return _calc_oa_lens(n, m)[1] is None
-
-except ImportError:  # a scipy without it: oaconvolve throughout
-    _one_block = None
-
 
 def central_mask(n_samples: int, half_width: int) -> np.ndarray:
     """Mask of the samples a central window of ``2*half_width + 1`` samples can reach."""
@@ -42,10 +33,9 @@ def apply_central_fir(x: np.ndarray, taps: np.ndarray) -> tuple[np.ndarray, np.n
     if n < taps.size:
         return np.full(x.shape, np.nan), central_mask(n, half)
     if taps.size >= _OVERLAP_ADD_FROM:
-        # Overlap-add FFT convolution along time for all channels at once: the fastest measured
-        # for long kernels on long signals (tests/timing/test_jacobi_timing.py). "same" keeps
-        # the output aligned with x, so the ends are overwritten in place (no copy).
-        y = _oaconvolve_same(x, _kernel(taps, x.ndim))
+        # FFT correlation along time for all channels at once (:func:`fft_correlate`), aligned
+        # with x, so the ends are overwritten in place (no copy)
+        y = fft_correlate(x, [taps])[0]
     elif taps.size <= _SLICED_UP_TO:
         # a short stencil (Euler differences): shifted slices summed in the order of scipy's
         # direct convolution (equal to it bit for bit), without its N-D machinery (5x faster
@@ -66,12 +56,13 @@ def apply_central_firs(x: np.ndarray, taps_list) -> list[tuple[np.ndarray, np.nd
     """:func:`apply_central_fir` for several kernels on the same ``x`` (e.g. the derivative
     orders of one method): ``[(y, valid), ...]`` in the order of ``taps_list``.
 
-    Two or more long kernels (>= 32 taps) that fit the record share one overlap-add: each block
-    of ``x`` is transformed once (``scipy.fft.rfft``, all channels and blocks at once) and
-    multiplied by each kernel's spectrum before its own inverse transform, instead of one
-    ``oaconvolve`` per kernel (each transforming ``x`` again): measured 2.0-2.5 times faster for
-    the three 211-tap kernels of Jacobi's paper preset on 1e6 samples; equal to ``oaconvolve``
-    to rounding (7e-12 there).
+    The long kernels (>= 32 taps) that fit the record share the record's transform
+    (:func:`fft_correlate`): each block of ``x`` is transformed once and multiplied by each
+    kernel's spectrum before its own inverse transform, instead of one ``oaconvolve`` per
+    kernel (each transforming ``x`` again): measured 2.0-2.5 times faster for the three 211-tap
+    kernels of Jacobi's paper preset on 1e6 samples; equal to ``oaconvolve`` to rounding (7e-12
+    there). A kernel's output does not depend on the others asked with it, when they are no
+    longer than it (a method's orders: kernels of one length).
     """
     taps_list = [np.asarray(taps, dtype=np.float64) for taps in taps_list]
     n = x.shape[0]
@@ -80,11 +71,9 @@ def apply_central_firs(x: np.ndarray, taps_list) -> list[tuple[np.ndarray, np.nd
         for taps in taps_list
     ]
     shared = [i for i, fits in enumerate(long_enough) if fits]
-    if len(shared) < 2:
+    if not shared:
         return [apply_central_fir(x, taps) for taps in taps_list]
-    filtered = dict(
-        zip(shared, _shared_overlap_add(x, [taps_list[i] for i in shared]), strict=True)
-    )
+    filtered = dict(zip(shared, fft_correlate(x, [taps_list[i] for i in shared]), strict=True))
     out = []
     for i, taps in enumerate(taps_list):
         if i not in filtered:
@@ -109,7 +98,7 @@ def _shared_overlap_add(x: np.ndarray, taps_list) -> list[np.ndarray]:
     flat = x.reshape(n, -1).T  # (channels, n)
     channels = flat.shape[0]
     longest = max(taps.size for taps in taps_list)
-    size = sp_fft.next_fast_len(max(BLOCK_PER_TAP * longest, 4096), real=True)
+    size = _block_size(longest)
     hop = size - longest + 1
     blocks = -(-n // hop)
     padded = np.zeros((channels, blocks, size))
@@ -129,24 +118,39 @@ def _shared_overlap_add(x: np.ndarray, taps_list) -> list[np.ndarray]:
     return out
 
 
-def _oaconvolve_same(x: np.ndarray, kernel: np.ndarray) -> np.ndarray:
-    """``scipy.signal.oaconvolve(x, kernel, mode="same", axes=0)``, the same numbers bit for bit.
+def fft_correlate(x: np.ndarray, taps_list) -> list[np.ndarray]:
+    """Each centred kernel of ``taps_list`` (each at most the record's length) correlated with
+    ``x`` along axis 0 ("same" alignment: an output per sample), all sharing the record's
+    transform.
 
-    Where scipy's overlap-add would be one block (its ``_calc_oa_lens`` finds no block shorter
-    than the record: about 1000 samples and 121 taps or more), scipy hands over to
-    ``fftconvolve``, whose transforms are done here directly: one ``rfft`` of the record and of
-    the kernel at ``next_fast_len(n + m - 1)``, their product's ``irfft``, the centred ``n``
-    samples. That skips about 40 µs of argument handling a call, most of the cost on records
-    of about 1000 samples, where a tuner evaluates hundreds of windows. ``oaconvolve`` stays
-    the path for every other case, and the test oracle of this one."""
-    n, m = x.shape[0], kernel.shape[0]
-    if _one_block is None or n == m or np.iscomplexobj(x) or not _one_block(n, m):
-        return sps.oaconvolve(x, kernel, mode="same", axes=0)
-    total = n + m - 1
-    size = sp_fft.next_fast_len(total, real=True)
-    spectrum = sp_fft.rfft(x, size, axis=0) * sp_fft.rfft(kernel, size, axis=0)
-    start = (m - 1) // 2
-    return sp_fft.irfft(spectrum, size, axis=0)[start : start + n]
+    A record that one block of the overlap-add covers (n + L - 1 samples at most the block's,
+    L the longest kernel) is transformed whole: one ``rfft`` of the record and of each kernel
+    at ``next_fast_len(n + L - 1)``, their product's ``irfft``, the centred n samples (for one
+    kernel the same computation, bit for bit, as scipy's ``fftconvolve``, to which
+    ``oaconvolve`` hands a one-block case over). Longer records run the overlap-add of
+    :func:`_shared_overlap_add`, which beats ``oaconvolve`` on one kernel too (its blocks of
+    :data:`BLOCK_PER_TAP` times the kernel, all transformed at once; measured 1.1-1.6 times
+    faster for 53-211 taps on 1e4-1e6 samples), equal to it to rounding. Direct transforms
+    skip scipy's N-D argument handling, most of a call's cost on records of about 1000
+    samples, where a tuner evaluates hundreds of windows. ``scipy.signal.oaconvolve`` is the
+    tests' oracle."""
+    n = x.shape[0]
+    longest = max(taps.size for taps in taps_list)
+    if n + longest - 1 > _block_size(longest):
+        return _shared_overlap_add(x, taps_list)
+    size = sp_fft.next_fast_len(n + longest - 1, real=True)
+    spectrum = sp_fft.rfft(x, size, axis=0)
+    out = []
+    for taps in taps_list:
+        product = spectrum * sp_fft.rfft(_kernel(taps, x.ndim), size, axis=0)
+        start = (taps.size - 1) // 2
+        out.append(sp_fft.irfft(product, size, axis=0)[start : start + n])
+    return out
+
+
+def _block_size(longest: int) -> int:
+    """Samples of an overlap-add block for kernels of at most ``longest`` taps."""
+    return sp_fft.next_fast_len(max(BLOCK_PER_TAP * longest, 4096), real=True)
 
 
 def _kernel(taps: np.ndarray, ndim: int) -> np.ndarray:

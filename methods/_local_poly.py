@@ -16,9 +16,8 @@ import math
 
 import numpy as np
 from numpy.polynomial import legendre
-from scipy import signal as sps
 
-from diffbench.methods._fir import apply_central_fir
+from diffbench.methods._fir import apply_central_fir, fft_correlate
 from diffbench.methods._validation import samples_in_span
 
 
@@ -367,12 +366,17 @@ KERNEL_FIT_CHUNK_ELEMENTS = 2_000_000
 factors at once: about 16 MB a block."""
 
 
+END_MATRIX_UP_TO = 1024
+"""Half widths up to which :func:`kernel_end_fits` applies the end fits as one cached matrix
+(m × 2m: at most 16 MiB); wider windows correlate the record instead."""
+
+
 def kernel_end_fits(
     x: np.ndarray, half_width: int, dt: float, degree: int, order: int, weights: np.ndarray
 ) -> np.ndarray:
     r""":func:`kernel_weighted_fit_at` on a uniform grid at the first ``m = half_width``
-    samples, whose windows the record's start truncates, for every channel at the cost of a
-    few convolutions: the estimates at samples 0..m-1 (time on axis 0).
+    samples, whose windows the record's start truncates, for every channel: the estimates at
+    samples 0..m-1 (time on axis 0), linear in the first 2m samples.
 
     With :math:`s` the offset in steps, :math:`g(s)` = ``weights`` (:math:`|s| \le m`) and the
     Legendre basis :math:`P_a(s/m)`, the fit at sample k solves the normal equations
@@ -381,14 +385,34 @@ def kernel_end_fits(
     .. math:: M_k = \sum_{s=-k}^{m} g(s) P(s/m) P(s/m)^T, \qquad
         b_k = \sum_{s=-k}^{m} g(s) P(s/m)\, x_{k+s},
 
-    the :math:`M_k` suffix sums over s and the :math:`b_k` correlations of the record with
-    :math:`g P_a` (``scipy.signal.oaconvolve``), and returns :math:`e^T M_k^{-1} b_k /
-    (m\Delta t)^n` with :math:`e` the n-th derivatives of the :math:`P_a` at 0: the same fit
-    as the QR of :func:`kernel_weighted_fit_at`, with its condition squared (normal
-    equations), in O(m log m) rather than O(m²) per channel. The record needs 2m samples.
+    and returns :math:`e^T M_k^{-1} b_k / (m\Delta t)^n` with :math:`e` the n-th derivatives of
+    the :math:`P_a` at 0: the same fit as the QR of :func:`kernel_weighted_fit_at`, with its
+    condition squared (normal equations). As a matrix E (m × 2m) of the first 2m samples,
+    :math:`E_{k,k+s} = \sum_a (M_k^{-1} e)_a\, g(s) P_a(s/m)` (:func:`_kernel_end_matrix`,
+    cached by setting: one product a call), up to :data:`END_MATRIX_UP_TO`; beyond, the
+    :math:`b_k` are the record's correlations with :math:`g P_a` (FFTs sharing its
+    transform), in O(m log m) rather than O(m²) per channel. The record needs 2m samples.
     """
     m = half_width
     flat = x.reshape(x.shape[0], -1)
+    weights = np.ascontiguousarray(weights, dtype=float)
+    if m <= END_MATRIX_UP_TO:
+        matrix = _kernel_end_matrix(m, float(dt), degree, order, weights.tobytes())
+        return matrix @ flat[: 2 * m]
+    solved, weighted = _kernel_end_factors(m, degree, order, weights)
+    padded = np.concatenate([np.zeros((m, flat.shape[1])), flat[: 2 * m]])  # x_j = 0 for j < 0
+    out = np.zeros((m, flat.shape[1]))
+    # b_k[a] = sum_s g(s) P_a(s/m) padded[k + m + s]: the centred correlations with g P_a at
+    # samples m..2m-1, every a sharing the record's transform (the degree + 1 kernels at once)
+    correlations = fft_correlate(padded, [weighted[:, a] for a in range(degree + 1)])
+    for a, correlated in enumerate(correlations):
+        out += solved[:, a, None] * correlated[m : 2 * m]
+    return out / (m * dt) ** order
+
+
+def _kernel_end_factors(m: int, degree: int, order: int, weights: np.ndarray):
+    """:func:`kernel_end_fits`' data-independent factors: :math:`M_k^{-1} e` (m, degree + 1)
+    for k = 0..m-1, and :math:`g(s) P_a(s/m)` (2m + 1, degree + 1) for s = -m..m."""
     basis = legendre.legvander(np.arange(-m, m + 1) / m, degree)  # rows s = -m..m
     weighted = weights[:, None] * basis
     products = weighted[:, :, None] * basis[:, None, :]
@@ -396,10 +420,18 @@ def kernel_end_fits(
     normal = suffix[m - np.arange(m)]  # M_k: rows s >= -k, i.e. from row m - k
     evaluate = _derivative_rows_at(0.0, degree, order)[0]
     solved = np.linalg.solve(normal, np.broadcast_to(evaluate, (m, degree + 1))[..., None])[..., 0]
-    padded = np.concatenate([np.zeros((m, flat.shape[1])), flat[: 2 * m]])  # x_j = 0 for j < 0
-    out = np.zeros((m, flat.shape[1]))
-    for a in range(degree + 1):
-        # b_k[a] = sum_s g(s) P_a(s/m) padded[k + m + s]: a correlation ("valid": k = 0..m-1)
-        b = sps.oaconvolve(padded, weighted[::-1, a, None], mode="valid", axes=0)
-        out += solved[:, a, None] * b
-    return out / (m * dt) ** order
+    return solved, weighted
+
+
+@functools.lru_cache(maxsize=64)
+def _kernel_end_matrix(m: int, dt: float, degree: int, order: int, weights: bytes) -> np.ndarray:
+    """:func:`kernel_end_fits`' matrix E (m × 2m) for the ``weights`` g(s), s = -m..m (their
+    float64 bytes); cached, read-only."""
+    solved, weighted = _kernel_end_factors(m, degree, order, np.frombuffer(weights))
+    rows = solved @ weighted.T  # rows[k, s + m] = sum_a (M_k^-1 e)_a g(s) P_a(s/m)
+    matrix = np.zeros((m, 2 * m))
+    for k in range(m):  # sample k reads x_{k+s} for s = -k..m
+        matrix[k, : k + m + 1] = rows[k, m - k :]
+    matrix /= (m * dt) ** order
+    matrix.flags.writeable = False
+    return matrix

@@ -139,7 +139,7 @@ class GaussianKernel(FirMethod):
         values = {}
         for order in orders:
             fit = (half_width, dt, order + 1, order, weights)
-            y = central[order].reshape(n, -1).copy()
+            y = central[order].reshape(n, -1)  # the central filter's own array, completed
             y[:half_width] = kernel_end_fits(flat, *fit)
             # the last samples are the first of the record reversed in time, whose n-th
             # derivative is (-1)^n times the record's

@@ -2,14 +2,17 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from diffbench.methods._ends import trusted_times
-from diffbench.methods._fir import apply_central_fir
+from diffbench.methods._fir import apply_central_firs
 from diffbench.methods._local_poly import (
+    apply_fir_with_ends,
+    end_evaluators,
     local_polynomial_at,
     local_polynomial_weights,
-    savitzky_golay_filter,
     window_samples,
 )
 from diffbench.methods._registry import FirMethod, Preset, param, register
@@ -103,24 +106,29 @@ class SavitzkyGolay(FirMethod):
         half_width = self._samples(dt) // 2
         if order > self.degree:
             return np.zeros(2 * half_width + 1)
-        return local_polynomial_weights(half_width, self.degree, order, np.array([0.0]), dt)[0]
+        return _central_taps(half_width, self.degree, order, float(dt))
 
     def _estimate(self, x, dt, orders):
+        # savitzky_golay_filter of each order, the central filters of all orders in one call
+        # (apply_central_firs: one transform of the record for every order)
         half_width = self._samples(dt) // 2
         valid = np.ones(x.shape[0], dtype=bool)
-        values = {
-            order: savitzky_golay_filter(x, half_width, self.degree, order, dt) for order in orders
-        }
+        taps = {order: self.taps(order, dt) for order in orders if order <= self.degree}
+        filtered = apply_central_firs(x, list(taps.values()))
+        values = {order: np.zeros_like(x) for order in orders}
+        for (order, central), (y, _) in zip(taps.items(), filtered, strict=True):
+            ends = end_evaluators(half_width, self.degree, order, dt)
+            values[order] = apply_fir_with_ends(x, central, ends, filtered=y)
         return values, {order: valid.copy() for order in orders}
 
     def _estimate_away_from_ends(self, x, dt, orders):
         # the central filter alone: its values are those savitzky_golay_filter keeps inside
         # (it overwrites only the first and last half_width samples), the ends NaN; no end
         # evaluators, a third of a setting's cost in a tuning
-        filtered = {order: apply_central_fir(x, self.taps(order, dt)) for order in orders}
+        filtered = apply_central_firs(x, [self.taps(order, dt) for order in orders])
         return (
-            {order: y for order, (y, _) in filtered.items()},
-            {order: keep for order, (_, keep) in filtered.items()},
+            {order: y for order, (y, _) in zip(orders, filtered, strict=True)},
+            {order: keep for order, (_, keep) in zip(orders, filtered, strict=True)},
         )
 
     def _estimate_at(self, x, times, orders):
@@ -136,3 +144,12 @@ class SavitzkyGolay(FirMethod):
         values = local_polynomial_at(x, times, self.window_s, self.degree, orders)
         valid = trusted_times(self, times, grid_step, orders)
         return values, valid
+
+
+@functools.lru_cache(maxsize=256)
+def _central_taps(half_width: int, degree: int, order: int, dt: float) -> np.ndarray:
+    """:func:`local_polynomial_weights` at the window's centre; cached (a tuning calls a
+    setting's taps again and again), read-only: the same numbers as computed afresh."""
+    taps = local_polynomial_weights(half_width, degree, order, np.array([0.0]), dt)[0]
+    taps.flags.writeable = False
+    return taps

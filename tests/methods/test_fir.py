@@ -1,5 +1,6 @@
 """The central FIR helpers against scipy: short stencils bit for bit scipy's direct
-convolution, several kernels in one shared overlap-add equal to one ``oaconvolve`` each."""
+convolution, long kernels on a record one block covers bit for bit its ``fftconvolve``, on
+longer ones (several kernels in one shared overlap-add) ``oaconvolve``'s values to rounding."""
 
 import numpy as np
 import pytest
@@ -42,27 +43,59 @@ def test_kernels_sharing_one_overlap_add_equal_one_oaconvolve_each():
         assert np.array_equal(valid, np.isfinite(reference[:, 0]))
 
 
+def _fftconvolve_central(x, taps):
+    """scipy's ``fftconvolve`` of the record with the kernel, the centred samples kept: what
+    ``oaconvolve`` hands a one-block case over to."""
+    kernel = taps[::-1].reshape((-1,) + (1,) * (x.ndim - 1))
+    y = sps.fftconvolve(x, kernel, mode="same", axes=0)
+    half = taps.size // 2
+    y[:half] = np.nan
+    y[x.shape[0] - half :] = np.nan
+    return y
+
+
 @pytest.mark.parametrize("channels", [(), (2,), (48,)])
-def test_long_kernels_equal_oaconvolve_bit_for_bit_on_either_side_of_its_one_block_rule(channels):
-    # around 1000 samples scipy's overlap-add is one block from 121 taps on (its fftconvolve,
-    # which apply_central_fir runs itself); shorter kernels or longer records take blocks
+def test_long_kernels_on_a_record_one_block_covers_are_scipys_fftconvolve_bit_for_bit(channels):
+    """n + L - 1 samples at most the overlap-add's block (4096 from 32 taps to 256, 16 L
+    beyond): one transform of the whole record, scipy's fftconvolve bit for bit (what
+    ``oaconvolve`` computes itself for about 1000 samples and 121 taps or more)."""
     rng = np.random.default_rng(5)
-    one_block = 0
-    for n, size in [
-        (1000, 33),
-        (1000, 101),
-        (1000, 121),
-        (1000, 185),
-        (1001, 499),
-        (999, 999),
-        (4097, 301),
-        (20_000, 211),
-        (257, 255),
-    ]:
+    for n, size in [(1000, 33), (1000, 121), (1001, 499), (999, 999), (257, 255), (3000, 1001)]:
+        assert n + size - 1 <= _fir._block_size(size)
         x = rng.standard_normal((n, *channels))
         taps = rng.standard_normal(size)
         y, valid = apply_central_fir(x, taps)
-        np.testing.assert_array_equal(y, _scipy_central(x, taps, "oa"))
+        np.testing.assert_array_equal(y, _fftconvolve_central(x, taps))
         assert valid.sum() == n - 2 * (size // 2)
-        one_block += _fir._one_block(n, size) and n != size
-    assert one_block == 4  # (1000, 121), (1000, 185), (1001, 499), (257, 255): the direct path
+
+
+@pytest.mark.parametrize("channels", [(), (2,), (48,)])
+def test_long_kernels_on_longer_records_equal_oaconvolve_to_rounding(channels):
+    """Records past one block run the shared overlap-add: oaconvolve's values to rounding.
+    Each output sums L products of the kernel and the record by FFTs of N points: the two
+    computations differ by about eps log2(N) sum|a| max|x| (the transforms' error bound, N
+    the block length); held to 4 times that."""
+    rng = np.random.default_rng(5)
+    for n, size in [(6000, 301), (20_000, 211), (9000, 33), (100_000, 53)]:
+        assert n + size - 1 > _fir._block_size(size)
+        x = rng.standard_normal((n, *channels))
+        taps = rng.standard_normal(size)
+        y, valid = apply_central_fir(x, taps)
+        bound = np.finfo(float).eps * np.log2(_fir._block_size(size)) * np.abs(taps).sum()
+        reference = _scipy_central(x, taps, "oa")
+        np.testing.assert_allclose(y, reference, rtol=0, atol=4 * bound * np.abs(x).max())
+        assert valid.sum() == n - 2 * (size // 2)
+
+
+def test_a_kernels_output_does_not_depend_on_the_kernels_asked_with_it():
+    """A method's orders are kernels of one length: each order's output the same bits asked
+    alone or with the others, on a short record (one transform) and a long one (blocks)."""
+    rng = np.random.default_rng(3)
+    kernels = [rng.standard_normal(211) for _ in range(3)]
+    for n in (1001, 50_000):
+        x = rng.standard_normal((n, 2))
+        together = apply_central_firs(x, kernels)
+        for taps, (y, valid) in zip(kernels, together, strict=True):
+            alone, alone_valid = apply_central_fir(x, taps)
+            assert np.array_equal(y, alone, equal_nan=True)
+            assert np.array_equal(valid, alone_valid)

@@ -75,13 +75,21 @@ def _window_fit(times, k, sigma_s, reach_s, degree):
     return fit, condition, sums
 
 
+@pytest.mark.parametrize("end_path", ["matrix", "correlations"])
 @pytest.mark.parametrize("sigma_s", [0.002, 0.0064])
-def test_the_ends_are_the_boundary_corrected_fit_and_the_interior_is_the_filter(sigma_s):
+def test_the_ends_are_the_boundary_corrected_fit_and_the_interior_is_the_filter(
+    sigma_s, end_path, monkeypatch
+):
     """Every sample estimated before the ends check: the interior bit for bit the central
     filter's, each end sample the Gaussian-weighted fit of degree n + 1 on the samples the
     truncated kernel covers (against numpy's weighted polynomial fit, within the rounding
-    bound of :func:`_window_fit` for normal equations)."""
+    bound of :func:`_window_fit` for normal equations), by the cached end matrix and by the
+    record's correlations (the path of windows wider than END_MATRIX_UP_TO)."""
+    from diffbench.methods import _local_poly
     from diffbench.methods._fir import apply_central_firs
+
+    if end_path == "correlations":
+        monkeypatch.setattr(_local_poly, "END_MATRIX_UP_TO", 0)
 
     t = np.arange(300) * DT
     x = np.sin(2 * np.pi * 4 * t) + 0.3 * np.cos(2 * np.pi * 11 * t + 0.4)
