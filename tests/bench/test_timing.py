@@ -69,7 +69,10 @@ def test_the_speed_ratios_check_that_ours_and_the_peers_agree(tmp_path):
     same = ratios.kalman_against_filterpy(samples=3_000, filterpy_samples=3_000, repeats=1)
     assert same["comparison"] == "Kalman smoother, per sample (both 3,000 samples)"
     assert same["agreement"] < 1e-9
-    assert "| Jacobi orders 0-2, one call |" in markdown
+    assert "| jacobi orders 0-2, one call, 50,000 samples |" in markdown
+    one = ratios.fir_against_oaconvolve("savitzky_golay", 20_000, (1,), repeats=1)
+    assert one["comparison"] == "savitzky_golay order 1, 20,000 samples"
+    assert one["agreement"] < 1e-12 and one["target"] == 1.0
 
 
 def test_forget_settings_empties_the_per_setting_caches_and_keeps_the_registry():
