@@ -86,9 +86,16 @@ def apply_central_firs(x: np.ndarray, taps_list) -> list[tuple[np.ndarray, np.nd
     return out
 
 
-BLOCK_PER_TAP = 16
-"""Overlap-add blocks of about this many times the longest kernel (at least 4096 samples):
-measured fastest at 16-20 for 211 taps on 1e6 samples."""
+BLOCK_PER_TAP = 8
+"""Overlap-add blocks of about this many times the longest kernel, at least
+:data:`SHORTEST_BLOCK` samples (measured on 1e4-1e6 samples and 53-211 taps: blocks of 1024
+to 2048 samples cost 0.7-0.8 of 4096-sample ones at 1e4 samples, about the same at 1e6)."""
+
+SHORTEST_BLOCK = 1024
+
+ONE_TRANSFORM_UP_TO = 4096
+"""Records (plus the kernel, less one) up to this many samples, or 16 times the kernel, are
+transformed whole rather than by blocks (a record of about 1000 samples in one FFT)."""
 
 
 def _shared_overlap_add(x: np.ndarray, taps_list) -> list[np.ndarray]:
@@ -123,8 +130,8 @@ def fft_correlate(x: np.ndarray, taps_list) -> list[np.ndarray]:
     ``x`` along axis 0 ("same" alignment: an output per sample), all sharing the record's
     transform.
 
-    A record that one block of the overlap-add covers (n + L - 1 samples at most the block's,
-    L the longest kernel) is transformed whole: one ``rfft`` of the record and of each kernel
+    A record of n + L - 1 samples at most :data:`ONE_TRANSFORM_UP_TO` or 16 L (L the
+    longest kernel) is transformed whole: one ``rfft`` of the record and of each kernel
     at ``next_fast_len(n + L - 1)``, their product's ``irfft``, the centred n samples (for one
     kernel the same computation, bit for bit, as scipy's ``fftconvolve``, to which
     ``oaconvolve`` hands a one-block case over). Longer records run the overlap-add of
@@ -136,7 +143,7 @@ def fft_correlate(x: np.ndarray, taps_list) -> list[np.ndarray]:
     tests' oracle."""
     n = x.shape[0]
     longest = max(taps.size for taps in taps_list)
-    if n + longest - 1 > _block_size(longest):
+    if not one_transform(n, longest):
         return _shared_overlap_add(x, taps_list)
     size = sp_fft.next_fast_len(n + longest - 1, real=True)
     spectrum = sp_fft.rfft(x, size, axis=0)
@@ -148,9 +155,15 @@ def fft_correlate(x: np.ndarray, taps_list) -> list[np.ndarray]:
     return out
 
 
+def one_transform(n: int, longest: int) -> bool:
+    """Whether :func:`fft_correlate` transforms a record of ``n`` samples whole for kernels of
+    at most ``longest`` taps (:data:`ONE_TRANSFORM_UP_TO`), rather than by blocks."""
+    return n + longest - 1 <= max(ONE_TRANSFORM_UP_TO, 16 * longest)
+
+
 def _block_size(longest: int) -> int:
     """Samples of an overlap-add block for kernels of at most ``longest`` taps."""
-    return sp_fft.next_fast_len(max(BLOCK_PER_TAP * longest, 4096), real=True)
+    return sp_fft.next_fast_len(max(BLOCK_PER_TAP * longest, SHORTEST_BLOCK), real=True)
 
 
 def _kernel(taps: np.ndarray, ndim: int) -> np.ndarray:

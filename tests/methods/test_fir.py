@@ -56,12 +56,12 @@ def _fftconvolve_central(x, taps):
 
 @pytest.mark.parametrize("channels", [(), (2,), (48,)])
 def test_long_kernels_on_a_record_one_block_covers_are_scipys_fftconvolve_bit_for_bit(channels):
-    """n + L - 1 samples at most the overlap-add's block (4096 from 32 taps to 256, 16 L
+    """n + L - 1 samples at most ONE_TRANSFORM_UP_TO (4096 from 32 taps to 256, 16 L
     beyond): one transform of the whole record, scipy's fftconvolve bit for bit (what
     ``oaconvolve`` computes itself for about 1000 samples and 121 taps or more)."""
     rng = np.random.default_rng(5)
     for n, size in [(1000, 33), (1000, 121), (1001, 499), (999, 999), (257, 255), (3000, 1001)]:
-        assert n + size - 1 <= _fir._block_size(size)
+        assert _fir.one_transform(n, size)
         x = rng.standard_normal((n, *channels))
         taps = rng.standard_normal(size)
         y, valid = apply_central_fir(x, taps)
@@ -77,7 +77,7 @@ def test_long_kernels_on_longer_records_equal_oaconvolve_to_rounding(channels):
     the block length); held to 4 times that."""
     rng = np.random.default_rng(5)
     for n, size in [(6000, 301), (20_000, 211), (9000, 33), (100_000, 53)]:
-        assert n + size - 1 > _fir._block_size(size)
+        assert not _fir.one_transform(n, size)
         x = rng.standard_normal((n, *channels))
         taps = rng.standard_normal(size)
         y, valid = apply_central_fir(x, taps)
