@@ -166,18 +166,35 @@ def apply_fir_with_ends(
     return y
 
 
+@functools.lru_cache(maxsize=256)
+def central_weights(half_width: int, degree: int, order: int, dt: float) -> np.ndarray:
+    """:func:`local_polynomial_weights` at the window's centre (the Savitzky-Golay filter's
+    taps); cached (a tuning calls a setting's taps again and again), read-only: the same
+    numbers as computed afresh."""
+    taps = local_polynomial_weights(half_width, degree, order, np.array([0.0]), dt)[0]
+    taps.flags.writeable = False
+    return taps
+
+
 def savitzky_golay_filter(
-    x: np.ndarray, half_width: int, degree: int, order: int, dt: float
+    x: np.ndarray,
+    half_width: int,
+    degree: int,
+    order: int,
+    dt: float,
+    filtered: np.ndarray | None = None,
 ) -> np.ndarray:
     """Savitzky-Golay estimate of the ``order``-th derivative of ``x`` along axis 0.
 
     Interior samples use the central weights; the first and last ``half_width`` samples use the
-    polynomial fitted to the first/last full window (scipy's ``mode="interp"``).
+    polynomial fitted to the first/last full window (scipy's ``mode="interp"``). ``filtered``:
+    the central filter's output already computed (completed in place).
     """
     if order > degree:
         return np.zeros_like(x)
-    central = local_polynomial_weights(half_width, degree, order, np.array([0.0]), dt)[0]
-    return apply_fir_with_ends(x, central, end_evaluators(half_width, degree, order, dt))
+    central = central_weights(half_width, degree, order, float(dt))
+    ends = end_evaluators(half_width, degree, order, dt)
+    return apply_fir_with_ends(x, central, ends, filtered=filtered)
 
 
 def window_samples(window_s: float, degree: int, dt: float) -> int:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import math
 from dataclasses import dataclass
@@ -189,7 +188,7 @@ class Gains:
     filter_gains: np.ndarray  # (T, m)
     smoother_gains: np.ndarray  # (T, m, m)
     steady: SteadyState
-    tables: tuple = ()
+    tables: tuple
 
 
 def step_tables(
@@ -250,11 +249,12 @@ def covariance_recursion(model: KalmanModel, prior_covariance: np.ndarray, n: in
             break
     parts = zip(*chunks, strict=True)
     filter_gains, covariances, predictions = (np.concatenate(part) for part in parts)
-    smoother_gains = covariances @ F.T @ np.linalg.inv(predictions)
+    smoother_gains = (covariances @ F.T @ np.linalg.inv(predictions)).reshape(-1, m, m)
     return Gains(
         filter_gains=filter_gains,
-        smoother_gains=smoother_gains.reshape(-1, m, m),
+        smoother_gains=smoother_gains,
         steady=steady,
+        tables=step_tables(F, filter_gains, smoother_gains, steady),
     )
 
 
@@ -289,11 +289,8 @@ def rts_smooth(
     m = model.states
     components = list(range(m)) if components is None else list(components)
     gains = covariance_recursion(model, covariance0, z.shape[0]) if gains is None else gains
-    tables = gains.tables or step_tables(
-        model.F, gains.filter_gains, gains.smoother_gains, gains.steady
-    )
-    start = loops.padded(np.asarray(mean0, dtype=float).T, 1, tables[1].shape[1])
-    states = loops.smooth(z.T, start, *tables)  # (channels, n, width)
+    start = loops.padded(np.asarray(mean0, dtype=float).T, 1, gains.tables[1].shape[1])
+    states = loops.smooth(z.T, start, *gains.tables)  # (channels, n, width)
     return states[:, :, components].transpose(1, 2, 0)
 
 
@@ -309,9 +306,7 @@ def prior_gains(model_order: int, dt: float, bandwidth_hz: float) -> Gains:
     (tuning, the ends' probes)."""
     model = _cached_model(model_order, dt, bandwidth_hz)
     _, covariance0 = initial_state(np.zeros((4 * model.states, 1)), model.per_step_coefficient)
-    gains = covariance_recursion(model, covariance0, 10**6)
-    tables = step_tables(model.F, gains.filter_gains, gains.smoother_gains, gains.steady)
-    return dataclasses.replace(gains, tables=tables)
+    return covariance_recursion(model, covariance0, 10**6)
 
 
 @functools.lru_cache(maxsize=8)

@@ -2,17 +2,14 @@
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
 from diffbench.methods._ends import trusted_times
 from diffbench.methods._fir import apply_central_firs
 from diffbench.methods._local_poly import (
-    apply_fir_with_ends,
-    end_evaluators,
+    central_weights,
     local_polynomial_at,
-    local_polynomial_weights,
+    savitzky_golay_filter,
     window_samples,
 )
 from diffbench.methods._registry import FirMethod, Preset, param, register
@@ -106,19 +103,18 @@ class SavitzkyGolay(FirMethod):
         half_width = self._samples(dt) // 2
         if order > self.degree:
             return np.zeros(2 * half_width + 1)
-        return _central_taps(half_width, self.degree, order, float(dt))
+        return central_weights(half_width, self.degree, order, float(dt))
 
     def _estimate(self, x, dt, orders):
         # savitzky_golay_filter of each order, the central filters of all orders in one call
         # (apply_central_firs: one transform of the record for every order)
         half_width = self._samples(dt) // 2
         valid = np.ones(x.shape[0], dtype=bool)
-        taps = {order: self.taps(order, dt) for order in orders if order <= self.degree}
-        filtered = apply_central_firs(x, list(taps.values()))
+        fitted = [order for order in orders if order <= self.degree]
+        filtered = apply_central_firs(x, [self.taps(order, dt) for order in fitted])
         values = {order: np.zeros_like(x) for order in orders}
-        for (order, central), (y, _) in zip(taps.items(), filtered, strict=True):
-            ends = end_evaluators(half_width, self.degree, order, dt)
-            values[order] = apply_fir_with_ends(x, central, ends, filtered=y)
+        for order, (y, _) in zip(fitted, filtered, strict=True):
+            values[order] = savitzky_golay_filter(x, half_width, self.degree, order, dt, y)
         return values, {order: valid.copy() for order in orders}
 
     def _estimate_away_from_ends(self, x, dt, orders):
@@ -144,12 +140,3 @@ class SavitzkyGolay(FirMethod):
         values = local_polynomial_at(x, times, self.window_s, self.degree, orders)
         valid = trusted_times(self, times, grid_step, orders)
         return values, valid
-
-
-@functools.lru_cache(maxsize=256)
-def _central_taps(half_width: int, degree: int, order: int, dt: float) -> np.ndarray:
-    """:func:`local_polynomial_weights` at the window's centre; cached (a tuning calls a
-    setting's taps again and again), read-only: the same numbers as computed afresh."""
-    taps = local_polynomial_weights(half_width, degree, order, np.array([0.0]), dt)[0]
-    taps.flags.writeable = False
-    return taps

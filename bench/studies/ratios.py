@@ -1,7 +1,8 @@
 """The speed comparisons with the peers (``results/timing/ratios.md``): the Kalman smoother
-against filterpy at equal and unequal lengths, Jacobi against ``scipy.signal.oaconvolve``, a
-Kalman tuning evaluation at a new setting against PyNumDiff's ``rtsdiff``, and oracle tuning
-against PyNumDiff's ``optimize``, each measured on the same data in one run."""
+against filterpy at equal and unequal lengths, every FIR method against
+``scipy.signal.oaconvolve``, a Kalman tuning evaluation at a new setting against PyNumDiff's
+``rtsdiff``, and oracle tuning against PyNumDiff's ``optimize``, each measured on the same
+data in one run."""
 
 from __future__ import annotations
 
@@ -137,11 +138,6 @@ def fir_against_oaconvolve(
         "target": 1.3 if several else 1.0,
         "agreement": agreement,
     }
-
-
-def jacobi_against_oaconvolve(samples: int = 1_000_000, repeats: int = 7) -> dict:
-    """:func:`fir_against_oaconvolve` for Jacobi's orders 0-2."""
-    return fir_against_oaconvolve("jacobi", samples, (0, 1, 2), repeats)
 
 
 TUNING_PEERS = {

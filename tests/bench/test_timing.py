@@ -54,7 +54,7 @@ def test_throughput_reports_memory_growth_and_causal_methods(tmp_path):
 
 def test_the_speed_ratios_check_that_ours_and_the_peers_agree(tmp_path):
     kalman = ratios.kalman_against_filterpy(samples=50_000, filterpy_samples=2_000, repeats=1)
-    jacobi = ratios.jacobi_against_oaconvolve(samples=50_000, repeats=1)
+    jacobi = ratios.fir_against_oaconvolve("jacobi", 50_000, (0, 1, 2), repeats=1)
     assert kalman["agreement"] < 1e-9  # the same smoothed positions as filterpy's
     assert jacobi["agreement"] < 1e-12  # the same outputs as oaconvolve, relative
     for row in (kalman, jacobi):
