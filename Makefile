@@ -25,28 +25,11 @@ $(STAMP): pyproject.toml constraints.txt
 # on random signals with known spectra). `make timing`: throughput, peak memory and the speed ratios against the peers
 # (results/timing/). Every step resumes from its store: a rerun recomputes and re-tunes
 # nothing and only rewrites the reports.
-# The grid and identify-dfki (5000-sample records) hold the native methods and the fast peers
-# (tvrdiff, rbfdiff, polydiff, rtsdiff, the splines and derivative's dense ones cost seconds a
-# call); the peers are tuned by the oracle only (the data-only criteria are for picking a
-# setting of ours). online-paper-signal runs the causal methods at sweeps of their settings,
-# online-2r-loop the same settings in the simulated robot's 1 kHz PD loop. recommend-check
-# scores the data-only recommendation on every uniformly sampled noisy scenario; the example
-# recommends on an exported record a user would have (seeded: the same every time). sindy:
-# which differentiator lets SINDy find six systems' equations, against the weak form.
+# The steps of `make studies` are listed, with why each is there, in bench/studies/steps.py
+# (`diffbench studies` runs them, each step its own diffbench process, and writes each step's
+# wall time to results/timing/studies.md). The grid and the paper-signal peers are the fast
+# ones (a call costs milliseconds); the paper signal's bench peers:
 GRID_PEERS := pynumdiff.spectraldiff,pynumdiff.butterdiff,pynumdiff.savgoldiff,pynumdiff.kerneldiff,derivative.spectral
-SPECTRAL_PEERS := pynumdiff.spectraldiff,derivative.spectral
-# PyNumDiff's counterparts of Kalman and Jacobi (issue 45's targets), tuned on the whole record
-# of each paper-signal record (the 1001 samples whose ends meet, and those whose ends do not)
-# and the kink; rbfdiff (the Gaussian process's) costs 1.3 s a call on 1000 samples, too slow
-# for 8000 calls (its own step below). The whole-record tunings screen the choice combinations
-# (--screen 2): the end treatments multiply them (Jacobi 9, spectral 16), and 400 evaluations
-# each left Jacobi's ẍ on 1000 samples worse on the scored seeds than its paper preset
-COUNTERPARTS := pynumdiff.rtsdiff,pynumdiff.polydiff
-# The Gaussian process against rbfdiff, its counterpart, on the whole record: one tuning seed
-# and the default budget for both (rbfdiff costs 1.3 s a call on 1000 samples, 9 s on 4937:
-# the 10-seed protocol above is out of its reach); on the 4.937 s record both are scored at
-# the settings they were tuned to on the 1000-sample one (--tuned-on: same signal and step)
-GP_COUNTERPART := gaussian_process,pynumdiff.rbfdiff
 STUDIES := results/studies
 
 bench: $(STAMP)
@@ -66,50 +49,7 @@ bench-suite:
 	  --out $(BENCH_OUT)
 
 studies: $(STAMP)
-	$(BIN)/diffbench run paper-signal --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench tune native paper-signal --criteria oracle,no-truth,pynumdiff --orders 1,2 \
-	  --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench tune peers paper-signal --criteria oracle --orders 1,2 --seeds $(SEEDS) \
-	  --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal --orders 1,2 --seeds $(SEEDS) \
-	  --tuning-seeds 10 --budget 400 --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench tune native,$(GRID_PEERS) paper-signal --orders 1,2 --seeds $(SEEDS) \
-	  --tuning-seeds 10 --budget 400 --screen 2 --region whole --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench tune $(COUNTERPARTS) paper-signal --orders 1,2 --seeds $(SEEDS) \
-	  --tuning-seeds 10 --budget 400 --screen 2 --region whole --jobs 2 --out $(STUDIES)
-	for record in paper-signal-4937ms paper-signal-999ms kink; do \
-	  $(BIN)/diffbench run $$record --seeds $(SEEDS) --jobs 2 --out $(STUDIES) && \
-	  $(BIN)/diffbench tune native,$(SPECTRAL_PEERS) $$record --criteria oracle \
-	    --orders 1,2 --seeds $(SEEDS) --jobs 2 --out $(STUDIES) && \
-	  $(BIN)/diffbench tune native,$(GRID_PEERS) $$record --orders 1,2 \
-	    --seeds $(SEEDS) --tuning-seeds 10 --budget 400 --jobs 2 --out $(STUDIES) && \
-	  $(BIN)/diffbench tune native,$(GRID_PEERS) $$record --orders 1,2 --seeds $(SEEDS) \
-	    --tuning-seeds 10 --budget 400 --screen 2 --region whole --jobs 2 --out $(STUDIES) && \
-	  $(BIN)/diffbench tune $(COUNTERPARTS) $$record --orders 1,2 --seeds $(SEEDS) \
-	    --tuning-seeds 10 --budget 400 --screen 2 --region whole --jobs 2 --out $(STUDIES) || exit 1; \
-	done
-	for record in paper-signal-999ms paper-signal; do \
-	  $(BIN)/diffbench tune $(GP_COUNTERPART) $$record --criteria oracle --region whole \
-	    --orders 1,2 --seeds $(SEEDS) --jobs 2 --out $(STUDIES) || exit 1; \
-	done
-	$(BIN)/diffbench tune $(GP_COUNTERPART) paper-signal-4937ms --tuned-on paper-signal-999ms \
-	  --criteria oracle --region whole --orders 1,2 --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench run paper-figures --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench run robot-sim --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench run identify-dfki --methods native,$(GRID_PEERS) --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench run online-paper-signal --seeds 5 --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench run online-2r-loop --seeds 3 --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench run grid --methods native,$(GRID_PEERS),causal --seeds 10 --jobs 2 \
-	  --out $(STUDIES)
-	$(BIN)/diffbench run recommend-check --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench run limit --methods native,$(GRID_PEERS),causal --seeds 20 --jobs 2 \
-	  --out $(STUDIES)
-	$(BIN)/diffbench run pareto --methods native --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench run pynumdiff-suite --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench run sindy --jobs 2 --out $(STUDIES)
-	$(BIN)/diffbench export pendulum-500hz-jitter $(STUDIES)/recommend-example/pendulum.csv
-	$(BIN)/diffbench recommend $(STUDIES)/recommend-example/pendulum.csv --time t --column x \
-	  --dt 0.002 --methods native,$(GRID_PEERS) --out $(STUDIES)/recommend-example
+	$(BIN)/diffbench studies --seeds $(SEEDS) --jobs 2 --out $(STUDIES)
 
 timing: $(STAMP)
 	$(BIN)/diffbench timing --out results

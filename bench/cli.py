@@ -19,6 +19,7 @@ from diffbench.bench.cli_options import OPTIONS
 from diffbench.bench.console import WARNINGS_LOG, Parser, route_third_party_warnings
 from diffbench.bench.console import run as run_process
 from diffbench.bench.core.store import set_command
+from diffbench.bench.studies import steps
 
 
 class Command(NamedTuple):
@@ -85,6 +86,12 @@ COMMANDS: dict[str, Command] = {
         api.run,
         (*OUT, *ITEMS, *PLUG, "seeds3", "methods2"),
         {"task": "paper-figures"},
+    ),
+    "studies": Command(
+        "every long study (make studies), each step its own diffbench process, resumable; "
+        "each step's wall time in TIMING_OUT/studies.md",
+        steps.run_studies,
+        ("out3", "timing_out", "seeds4", "jobs", "only"),
     ),
     "timing": Command(
         "throughput and peak memory of every method vs signal length, and the speed "

@@ -383,5 +383,37 @@ OPTIONS: dict[str, tuple[tuple[str, ...], dict[str, Any]]] = {
             help=("where the ranking, derivatives and figure go (default: recommend-FILESTEM/)"),
         ),
     ),
+    "out3": (
+        ("--out",),
+        dict(
+            type=Path,
+            default=Path("results/studies"),
+            help="the studies' results directory (default results/studies/; store in OUT/store/)",
+        ),
+    ),
+    "timing_out": (
+        ("--timing-out",),
+        dict(
+            type=Path,
+            default=None,
+            help="where the steps' timing table goes (default: OUT/../timing/)",
+        ),
+    ),
+    "seeds4": (
+        ("--seeds",),
+        dict(
+            type=typed(seed_count),
+            default=20,
+            help="scored seeds of the paper-signal and robot steps (default 20)",
+        ),
+    ),
+    "only": (
+        ("--only",),
+        dict(
+            type=typed(name_list),
+            default=None,
+            help="run only the steps of these studies, comma-separated (default: every step)",
+        ),
+    ),
 }
 """Every option of every command, by name; a command names those it takes."""

@@ -1,0 +1,68 @@
+"""``diffbench studies`` (make studies as data): every step is a valid command line, a step's
+attempts are stored with the records they added, and the timing table counts the first pass."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from diffbench.bench.cli import build_parser
+from diffbench.bench.studies import steps as studies
+from diffbench.bench.studies.steps import Step, record_counts, run_steps, studies_timing
+
+ONE_CELL = ("run", "paper-signal", "--seeds", "1", "--methods", "finite_difference")
+
+
+def test_every_step_is_a_command_line_diffbench_parses(tmp_path):
+    parser = build_parser()
+    every = studies.studies_steps(seeds=20, jobs=2)
+    for step in every:
+        argv = studies._resolved(step, tmp_path)[3:]
+        assert "{out}" not in " ".join(argv)
+        parser.parse_args(argv)  # argparse exits (SystemExit 2) on a bad command line
+    # the steps the Makefile ran before it called diffbench studies, each once
+    assert len({step.command for step in every}) == len(every) == 37
+    assert {step.study for step in every} >= {"grid", "limit", "sindy", "identify-dfki"}
+
+
+def test_attempts_are_stored_with_the_records_they_added(tmp_path):
+    steps = [
+        Step("paper-signal", (*ONE_CELL, "--no-progress")),
+        Step(
+            "example", ("export", "pendulum-500hz-jitter", "{out}/example/p.csv"), takes_out=False
+        ),
+    ]
+    first = run_steps(steps, tmp_path, echo=lambda line: None)
+    assert list(first["status"]) == ["ok", "ok"]
+    assert list(first["new_cells"]) == [1, 0]  # one seed of one method: one cell
+    assert (tmp_path / "example" / "p.csv").exists()
+    assert record_counts(tmp_path / "store")["cells"] == 1
+    again = run_steps(steps, tmp_path, echo=lambda line: None)
+    assert len(again) == 4 and list(again["new_cells"]) == [1, 0, 0, 0]  # resumed: nothing new
+    table = studies_timing(again, steps)
+    # the first pass only: the rerun's attempts are not the time from an empty store
+    assert list(table["attempts"]) == [1, 1]
+    assert list(table["wall_s"]) == list(first["wall_s"])
+    assert math.isclose(table["share"].sum(), 1.0, rel_tol=4 * 2.2e-16)
+    assert bool(again["store_empty_at_start"].iloc[0]) and not again["store_empty_at_start"].iloc[2]
+
+
+def test_a_failing_step_stops_the_run_and_is_stored_unfinished(tmp_path):
+    steps = [
+        Step("paper-signal", ("run", "paper-signal", "--methods", "no_such_method")),
+        Step("paper-signal", ONE_CELL),
+    ]
+    with pytest.raises(SystemExit) as stopped:
+        run_steps(steps, tmp_path, echo=lambda line: None)
+    assert stopped.value.code == 2  # the step's usage error, its exit code
+    assert record_counts(tmp_path / "store")["cells"] == 0  # the second step never ran
+    attempts = run_steps(steps[:0], tmp_path)  # nothing to run: the stored attempts
+    assert list(attempts["status"]) == ["2"]
+    table = studies_timing(attempts, steps)
+    assert table["wall_s"].isna().all() and list(table["attempts"]) == [1, 0]
+
+
+def test_no_store_counts_zero(tmp_path: Path):
+    assert set(record_counts(tmp_path).values()) == {0}
