@@ -153,7 +153,7 @@ def _dispatch(argv: list[str]) -> None:
         out = api.recommend_out(args.file, out)
     if isinstance(out, Path):  # other packages' warnings: a log there
         route_third_party_warnings(out / WARNINGS_LOG)
-    api.load_plugins(args.plugins)
+    api.load_plugins(getattr(args, "plugins", ()))  # studies: each step loads its own
     command = COMMANDS[args.command]
     given = {k: v for k, v in vars(args).items() if k not in CLI_ONLY}
     if "executor" in vars(args) and (args.executor == "dask" or args.scheduler is not None):

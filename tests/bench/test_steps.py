@@ -66,3 +66,16 @@ def test_a_failing_step_stops_the_run_and_is_stored_unfinished(tmp_path):
 
 def test_no_store_counts_zero(tmp_path: Path):
     assert set(record_counts(tmp_path).values()) == {0}
+
+
+def test_the_command_line_runs_the_steps_asked_for_and_writes_the_table(tmp_path, capsys):
+    from diffbench.bench.cli import main
+
+    timing = tmp_path / "timing"
+    argv = ["studies", "--only", "no-such-study", "--out", str(tmp_path / "s")]
+    assert main([*argv, "--timing-out", str(timing)]) == 0
+    table = (timing / "studies.md").read_text()
+    assert "diffbench run grid" in table and (timing / "studies.csv").exists()
+    assert capsys.readouterr().out.splitlines() == [
+        str(timing / n) for n in ("studies.md", "studies.csv")
+    ]
