@@ -143,7 +143,7 @@ def record_counts(directory: Path) -> dict[str, int]:
     counts = dict.fromkeys(SCHEMAS, 0)
     if not (path.exists() and path.stat().st_size > 0):
         return counts
-    connection = sqlite3.connect(f"{path.as_uri()}?mode=ro", uri=True, timeout=60)
+    connection = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, timeout=60)
     try:
         for table in counts:
             counts[table] = connection.execute(f'SELECT count(*) FROM "{table}"').fetchone()[0]

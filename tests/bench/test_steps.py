@@ -27,19 +27,20 @@ def test_every_step_is_a_command_line_diffbench_parses(tmp_path):
     assert {step.study for step in every} >= {"grid", "limit", "sindy", "identify-dfki"}
 
 
-def test_attempts_are_stored_with_the_records_they_added(tmp_path):
+def test_attempts_are_stored_with_the_records_they_added(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # a relative output folder, as make studies gives
     steps = [
         Step("paper-signal", (*ONE_CELL, "--no-progress")),
         Step(
             "example", ("export", "pendulum-500hz-jitter", "{out}/example/p.csv"), takes_out=False
         ),
     ]
-    first = run_steps(steps, tmp_path, echo=lambda line: None)
+    first = run_steps(steps, Path("."), echo=lambda line: None)
     assert list(first["status"]) == ["ok", "ok"]
     assert list(first["new_cells"]) == [1, 0]  # one seed of one method: one cell
     assert (tmp_path / "example" / "p.csv").exists()
     assert record_counts(tmp_path / "store")["cells"] == 1
-    again = run_steps(steps, tmp_path, echo=lambda line: None)
+    again = run_steps(steps, Path("."), echo=lambda line: None)
     assert len(again) == 4 and list(again["new_cells"]) == [1, 0, 0, 0]  # resumed: nothing new
     table = studies_timing(again, steps)
     # the first pass only: the rerun's attempts are not the time from an empty store
