@@ -447,24 +447,17 @@ class KalmanFilter(CausalMethod):
         return mean, 0, (*self._gains(dt, steps), steps)
 
     def _advance(self, state, x, dt, orders):
+        from diffbench.methods import _causal_loops  # numba: imported on first use
+
         mean, k, known = state  # known: (model, gains, the steps they were asked for)
         model, gains, steps = known
         if k + x.shape[0] > len(gains.filter_gains) == steps:  # not steady yet: more
             steps = _power_of_two(k + x.shape[0])
             known = (*self._gains(dt, steps), steps)
             model, gains, _ = known
-        transition, recorded = model.F, gains.filter_gains
-        estimates = np.empty((x.shape[0], *mean.shape))
-        steady = gains.steady.filter_gain.reshape((-1,) + (1,) * (mean.ndim - 1))
-        for i in range(x.shape[0]):
-            gain = recorded[k + i] if k + i < len(recorded) else None
-            predicted = np.tensordot(transition, mean, axes=1)
-            innovation = x[i] - predicted[0]
-            if gain is None:
-                mean = predicted + steady * innovation
-            else:
-                mean = predicted + gain.reshape(steady.shape) * innovation
-            estimates[i] = mean
+        estimates, mean = _causal_loops.track(
+            model.F, x, mean, gains.steady.filter_gain, gains.filter_gains, start=k
+        )
         scale = model.to_derivatives
         values = {order: estimates[:, order] * scale[order] for order in orders}
         return values, (mean, k + x.shape[0], known)
@@ -539,15 +532,14 @@ class AlphaBetaGamma(CausalMethod):
         return state, True
 
     def _advance(self, state, x, dt, orders):
+        from diffbench.methods import _causal_loops  # numba: imported on first use
+
         transition, gain = self._model(dt)
         current, first = state
-        gain = gain.reshape((-1,) + (1,) * (current.ndim - 1))
-        estimates = np.empty((x.shape[0], *current.shape))
-        for i in range(x.shape[0]):
-            if first:  # the first sample is the state (zero velocity and acceleration)
-                first = False
-            else:
-                predicted = np.tensordot(transition, current, axes=1)
-                current = predicted + gain * (x[i] - predicted[0])
-            estimates[i] = current
+        starts = first and x.shape[0] > 0
+        if starts:  # the first sample is the state (zero velocity and acceleration)
+            head, x = current[None], x[1:]
+        estimates, current = _causal_loops.track(transition, x, current, gain)
+        if starts:
+            estimates, first = np.concatenate([head, estimates]), False
         return {order: estimates[:, order] for order in orders}, (current, first)
