@@ -13,6 +13,7 @@ whether the store was empty when the first step began (the time *from an empty s
 from __future__ import annotations
 
 import os
+import re
 import signal
 import sqlite3
 import subprocess
@@ -223,6 +224,11 @@ def run_steps(
         store.close()
 
 
+def _without_jobs(command: str) -> str:
+    """A step's command less its ``--jobs N``: the same step, whatever the processes."""
+    return re.sub(r" --jobs \d+", "", command)
+
+
 def studies_timing(attempts: pd.DataFrame, steps: Sequence[Step]) -> pd.DataFrame:
     """One row per step of ``steps``: the wall time of its first pass, the attempts up to its
     first that finished (an interrupted attempt's time counts: the resumed one did only the
@@ -230,7 +236,8 @@ def studies_timing(attempts: pd.DataFrame, steps: Sequence[Step]) -> pd.DataFram
     added, the step's share of the total. A step not yet finished has no time (NaN)."""
     rows = []
     for index, step in enumerate(steps, start=1):
-        mine = attempts[(attempts["index"] == index) & (attempts["command"] == step.command)]
+        same = attempts["command"].map(_without_jobs) == _without_jobs(step.command)
+        mine = attempts[(attempts["index"] == index) & same]
         finished = (mine["status"] == "ok").to_numpy().nonzero()[0]
         if len(finished):
             mine = mine.iloc[: finished[0] + 1]
@@ -259,36 +266,46 @@ def write_studies_timing(
     csv = write_csv(directory / "studies.csv", table)
     first = attempts.iloc[0] if len(attempts) else pd.Series(dtype=object)
     empty = bool(first.get("store_empty_at_start", False))
-    missing = int(table["wall_s"].isna().sum())
-    total = table["wall_s"].sum()
+    revisions = ", ".join(dict.fromkeys(attempts["git_rev"])) if len(attempts) else "?"
+    jobs = re.search(r"--jobs (\d+)", str(first.get("command", "")))
+    finished = table["wall_s"].notna()
     per_study = (
-        table.groupby("study", sort=False)["wall_s"]
-        .sum(min_count=1)
+        table.assign(finished=finished)
+        .groupby("study", sort=False)
+        .agg(steps=("index", "size"), finished=("finished", "sum"), wall_s=("wall_s", "sum"))
         .reset_index()
-        .assign(minutes=lambda f: (f["wall_s"] / 60).round(1))
     )
-    shown = table.assign(
-        minutes=(table["wall_s"] / 60).round(2),
-        share=(100 * table["share"]).round(1).astype(str) + " %",
+    per_study["minutes"] = (per_study["wall_s"] / 60).map(lambda m: f"{m:.1f}")
+    per_study.loc[per_study["finished"] == 0, "minutes"] = "—"
+
+    def shown(values, text):
+        return [text(v) if pd.notna(v) else "—" for v in values]
+
+    steps_shown = table.assign(
+        command=table["command"].map(_without_jobs),
+        minutes=shown(table["wall_s"] / 60, lambda m: f"{m:.2f}"),
+        share=shown(100 * table["share"], lambda p: f"{p:.1f} %"),
     )[["index", "study", "command", "minutes", "share", "attempts", "new_cells", "new_tunings"]]
     lines = [
         "# make studies: each step's wall time",
         "",
-        f"Steps run by `diffbench studies` (`make studies`) on {first.get('cpus', '?')} CPUs "
-        f"at {first.get('git_rev', '?')}, "
+        f"`diffbench studies --jobs {jobs.group(1) if jobs else '?'}` (`make studies`) on "
+        f"{first.get('cpus', '?')} CPUs, code at {revisions}, "
         + ("from an empty store" if empty else "on a store that already held records")
-        + f": {total / 60:.1f} min in all"
-        + (f", {missing} steps not finished (no time)" if missing else "")
-        + ". A step's time is the sum over its attempts (a resumed step did only the rest); "
-        "new_cells / new_tunings: the records it added to the store.",
+        + f": {int(finished.sum())} of {len(table)} steps finished, "
+        f"{table['wall_s'].sum() / 60:.1f} min of wall time in all"
+        + ("" if finished.all() else " (— : a step not finished in this store, no time)")
+        + ". A step's time is that of its first pass: its attempts up to the first that "
+        "finished (an interrupted one and its resumption). new_cells, new_tunings: the records "
+        "the step added to the store.",
         "",
-        "## By study",
+        "By study (minutes of the finished steps):",
         "",
-        markdown_table(per_study[["study", "minutes"]]),
+        markdown_table(per_study[["study", "steps", "finished", "minutes"]]),
         "",
-        "## By step",
+        "By step:",
         "",
-        markdown_table(shown),
+        markdown_table(steps_shown),
         "",
     ]
     return [write_text(directory / "studies.md", "\n".join(lines)), csv]

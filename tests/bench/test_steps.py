@@ -80,3 +80,20 @@ def test_the_command_line_runs_the_steps_asked_for_and_writes_the_table(tmp_path
     assert capsys.readouterr().out.splitlines() == [
         str(timing / n) for n in ("studies.md", "studies.csv")
     ]
+
+
+def test_a_step_is_the_same_step_whatever_its_processes():
+    import pandas as pd
+
+    ran = Step("grid", ("run", "grid", "--jobs", "2"))
+    attempts = pd.DataFrame(
+        [
+            {"index": 1, "command": ran.command, "status": "interrupted", "wall_s": 60.0},
+            {"index": 1, "command": ran.command, "status": "ok", "wall_s": 30.0},
+            {"index": 1, "command": ran.command, "status": "ok", "wall_s": 2.0},  # a rerun
+        ]
+    ).assign(new_cells=[5, 3, 0], new_tunings=0, new_studies=0)
+    table = studies_timing(attempts, [Step("grid", ("run", "grid", "--jobs", "1"))])
+    # the interrupted attempt and its resumption: the first pass; the rerun is not counted
+    assert list(table["wall_s"]) == [90.0] and list(table["new_cells"]) == [8]
+    assert list(table["attempts"]) == [2]
