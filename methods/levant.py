@@ -4,10 +4,8 @@ with its outputs read as backward-difference combinations of its states."""
 from __future__ import annotations
 
 import functools
-import math
 
 import numpy as np
-from scipy import optimize
 
 from diffbench.methods._causal import CausalMethod
 from diffbench.methods._registry import Preset, param, register
@@ -137,20 +135,13 @@ class Levant(CausalMethod):
         return state
 
     def _advance(self, state, x, dt, orders):
+        from diffbench.methods import _causal_loops  # numba: imported on first use
+
         self._check_orders(orders)
         n = self.differentiator_order
-        scale, coefficients, powers, steps, propagate = _step_constants(n, self.lipschitz, dt)
+        constants = _step_constants(n, self.lipschitz, dt)
+        states, last = _causal_loops.levant_steps(constants, dt, x, state)
         j = np.arange(n + 1)
-        flat = state.reshape(n + 1, -1).copy()
-        samples = x.reshape(x.shape[0], -1)
-        states = np.empty((x.shape[0], n + 1, flat.shape[1]))
-        for k in range(samples.shape[0]):
-            for channel in range(flat.shape[1]):
-                z = flat[:, channel]
-                residual = float(steps @ z) - samples[k, channel]
-                injection = _injection(residual, coefficients, scale, powers)
-                flat[:, channel] = propagate @ (z - dt * injection)
-            states[k] = flat
         weights = output_weights(n)
         values = {}
         for order in orders:
@@ -160,8 +151,8 @@ class Levant(CausalMethod):
             total = np.zeros(states[:, 0].shape)
             for term, weight in enumerate(row):
                 total += weight * states[:, term]
-            values[order] = total.reshape(x.shape)
-        return values, flat.reshape(state.shape)
+            values[order] = total
+        return values, last
 
 
 @functools.lru_cache(maxsize=64)
@@ -183,22 +174,3 @@ def _step_constants(n: int, lipschitz: float, dt: float) -> tuple[np.ndarray, ..
     for array in (scale, coefficients, powers, steps, propagate):
         array.setflags(write=False)
     return scale, coefficients, powers, steps, propagate
-
-
-def _injection(residual: float, coefficients, scale, powers) -> np.ndarray:
-    """:math:`D(e)` for the error e solving the implicit step (see :class:`Levant`)."""
-    n = len(coefficients) - 1
-    sign_limit = coefficients[n]
-    injection = np.zeros(n + 1)
-    if abs(residual) <= sign_limit:  # sliding: e = 0, Sign(0) = r / c_n
-        injection[n] = scale[n] * residual / sign_limit
-        return injection
-    target = abs(residual) - sign_limit
-
-    def excess(u: float) -> float:
-        return u + float(coefficients[:n] @ u ** powers[:n]) - target
-
-    magnitude = optimize.brentq(excess, 0.0, target, xtol=1e-300, rtol=4 * np.finfo(float).eps)
-    sign = math.copysign(1.0, residual)
-    injection[:] = scale * magnitude**powers * sign
-    return injection
