@@ -241,6 +241,11 @@ class Scenario:
             If ``seed`` is not a non-negative integer.
         """
         seed = check_seed(seed)
+        if self.n_samples <= CACHED_SAMPLES:
+            return _cached_draw(self, seed)
+        return self._draw(seed)
+
+    def _draw(self, seed: int) -> Realisation:
         t = self.t
         if self.sampling:
             rng = np.random.default_rng([1, seed])
@@ -260,6 +265,23 @@ class Scenario:
             seed=seed,
             interior=self._interior(t),
         )
+
+
+CACHED_SAMPLES = 20_000
+"""Records up to this many samples are kept once drawn (:func:`_cached_draw`)."""
+
+CACHED_REALISATIONS = 64
+"""How many drawn realisations are kept: a study's every seed of a few scenarios."""
+
+
+@functools.lru_cache(maxsize=CACHED_REALISATIONS)
+def _cached_draw(scenario: Scenario, seed: int) -> Realisation:
+    """``scenario``'s realisation for ``seed``, drawn once for every cell and tuning that asks
+    (its arrays are read-only, so one object serves them all): a random signal's path costs
+    10-130 ms to draw (the limit study's Gauss-Markov recursions and band-limited sums),
+    asked for again by each of its methods and roles. At most ``CACHED_REALISATIONS`` records
+    of at most ``CACHED_SAMPLES`` samples: under 70 MB."""
+    return scenario._draw(seed)
 
 
 def register_scenario(scenario: Scenario) -> Scenario:

@@ -85,6 +85,15 @@ def scenario_bound(scenario, order: int, causal: bool = False) -> float:
     interior's error reaches far from the ends), for a band-limited one the exact posterior
     variance on this record, averaged over its interior (the infinite record's is not
     reached within a few seconds: tested)."""
+    _check_bounded(scenario)
+    if isinstance(scenario.signal, GaussMarkov):
+        noise_std = scenario.noise.models[0].std
+        return smoother_bound(scenario.signal, scenario.dt_s, noise_std, order, causal)
+    return _record_bound(scenario, int(order), bool(causal))
+
+
+def _check_bounded(scenario) -> None:
+    """ValueError unless ``scenario`` has a known bound (see :func:`scenario_bound`)."""
     models = scenario.noise.models
     if not (
         isinstance(scenario.signal, (GaussMarkov, BandLimited))
@@ -97,9 +106,6 @@ def scenario_bound(scenario, order: int, causal: bool = False) -> float:
             "band-limited signal (diffbench.signals.stochastic) in white Gaussian noise, "
             "uniformly sampled"
         )
-    if isinstance(scenario.signal, GaussMarkov):
-        return smoother_bound(scenario.signal, scenario.dt_s, models[0].std, order, causal)
-    return _record_bound(scenario, int(order), bool(causal))
 
 
 @functools.lru_cache(maxsize=64)
@@ -122,7 +128,7 @@ def optimal_scores(scenario, seed: int, causal: bool = False) -> list[dict]:
     (:func:`optimal_states`; ``causal``: the filter) on ``scenario``'s realisation ``seed``,
     for each derivative order 1..2 the signal has. Every method's cell on that seed needs the
     same rows: they are kept for the last few (scenario, seed, causal) of the process."""
-    scenario_bound(scenario, 1)  # refuses a scenario without a bound
+    _check_bounded(scenario)  # refuses a scenario without a bound
     return [dict(row) for row in _optimal_scores(scenario, int(seed), bool(causal))]
 
 

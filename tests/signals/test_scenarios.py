@@ -130,6 +130,29 @@ def test_realise_is_bit_reproducible_and_seed_dependent():
     assert (a.seed, c.seed) == (7, 8)
 
 
+@pytest.mark.parametrize("name", ["paper-signal", "limit-band20-0.01", "limit-iwn3-0.1"])
+def test_a_realisation_is_drawn_once_and_is_the_fresh_draw(name):
+    """A record of at most CACHED_SAMPLES samples is drawn once a seed (the same read-only
+    object for every later call), bit for bit what a fresh draw gives; a longer one is drawn
+    at every call."""
+    scenario = get_scenario(name)
+    kept = scenario.realise(3)
+    assert scenario.realise(3) is kept
+    fresh = scenario._draw(3)
+    for field in ("t", "x", "noise", "interior"):
+        np.testing.assert_array_equal(getattr(kept, field), getattr(fresh, field))
+        assert not getattr(kept, field).flags.writeable
+    for derivative, expected in zip(kept.truth.derivatives, fresh.truth.derivatives, strict=True):
+        np.testing.assert_array_equal(derivative, expected)
+    long = dataclasses.replace(
+        scenario, name=f"{name}-long", duration_s=scenarios_module.CACHED_SAMPLES * scenario.dt_s
+    )
+    assert long.n_samples > scenarios_module.CACHED_SAMPLES
+    first, second = long.realise(3), long.realise(3)
+    assert first is not second
+    np.testing.assert_array_equal(first.x, second.x)
+
+
 def test_realise_uses_default_rng_of_the_seed():
     scenario = get_scenario("paper-signal")
     expected_noisy, expected_noise = scenario.noise.apply(
