@@ -476,7 +476,7 @@ class Jacobi(FirMethod):
         n = x.shape[0]
         size = min(n, 2 * m + 1)
         out = np.array(filtered, dtype=np.float64).reshape(n, -1)
-        if m * size <= CACHED_END_WEIGHTS:
+        if m * size <= LAST_END_WEIGHTS:
             starts, ends = _boundary_weights(self, order, m, size)
             scale = 1.0 / dt**order
             out[:m] = scale * (starts @ x[:size].reshape(size, -1))
@@ -599,12 +599,25 @@ class Jacobi(FirMethod):
 
 CACHED_END_WEIGHTS = 4_000_000
 """The most weights (end samples times window samples, per end) of Jacobi's boundary fits
-kept for reuse: 32 MB an end, windows up to 2827 samples; wider ones are fitted record by
-record. With the 8 settings kept, at most 512 MB."""
+kept for reuse for the last 8 settings: 32 MB an end, windows up to 2827 samples. With the 8
+settings kept, at most 512 MB."""
+
+LAST_END_WEIGHTS = 25_000_000
+"""The most weights of the boundary fits kept for the last setting only (200 MB an end,
+windows up to 7071 samples): a scored cell estimates one setting's record seven times (the
+estimate, then its bias and noise parts for each order), 0.3 s windows at 0.1 ms steps
+(the grid's) are 2963 samples wide. Wider ones are fitted record by record."""
 
 
-@functools.lru_cache(maxsize=8)
 def _boundary_weights(method: Jacobi, order: int, m: int, size: int):
+    """:func:`_fitted_boundary_weights`, kept for the last 8 settings up to
+    ``CACHED_END_WEIGHTS``, for the last one up to ``LAST_END_WEIGHTS``."""
+    if m * size <= CACHED_END_WEIGHTS:
+        return _kept_boundary_weights(method, order, m, size)
+    return _last_boundary_weights(method, order, m, size)
+
+
+def _fitted_boundary_weights(method: Jacobi, order: int, m: int, size: int):
     """The boundary fits of ``ends="boundary"`` as weights, in steps (dt = 1): the matrices
     (m by ``size``) giving end samples 0..m-1 from the first ``size`` samples and samples
     n-m..n-1 from the last ``size``, at :meth:`Jacobi._boundary_degrees` (rows of NaN where
@@ -629,6 +642,10 @@ def _boundary_weights(method: Jacobi, order: int, m: int, size: int):
         ends[m - 1 - at] = kernel_weighted_weights_at(times, size - 1 - at, *fit)
     starts.flags.writeable = ends.flags.writeable = False
     return starts, ends
+
+
+_kept_boundary_weights = functools.lru_cache(maxsize=8)(_fitted_boundary_weights)
+_last_boundary_weights = functools.lru_cache(maxsize=1)(_fitted_boundary_weights)
 
 
 def _edge(works, inside: float, outside: float) -> float:
