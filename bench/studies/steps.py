@@ -21,11 +21,12 @@ import sys
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
+from datetime import datetime, timedelta
 from pathlib import Path
 
 import pandas as pd
 
-from diffbench.bench.core.provenance import provenance
+from diffbench.bench.core.provenance import git_revision
 from diffbench.bench.core.records import SCHEMAS, utc_now
 from diffbench.bench.core.store import STORE_FILE, Store
 from diffbench.bench.report.tables import markdown_table, write_csv, write_text
@@ -167,7 +168,28 @@ def _attempts(store: Store) -> pd.DataFrame:
     columns = ["index", "command", "status", "wall_s", "started_utc"]
     columns += [f"new_{table}" for table in SCHEMAS]
     frame = pd.DataFrame(rows, columns=list(dict.fromkeys([*columns, *(rows[0] if rows else ())])))
-    return frame.sort_values("started_utc", kind="stable", ignore_index=True)
+    frame = frame.sort_values("started_utc", kind="stable", ignore_index=True)
+    if len(frame):
+        frame["git_rev"] = [
+            _step_revision(attempt, store.runs.values()) for _, attempt in frame.iterrows()
+        ]
+    return frame
+
+
+def _step_revision(attempt: pd.Series, runs) -> str:
+    """The code revision(s) the step's own processes recorded in their runs' rows (those begun
+    while the attempt ran, ``diffbench studies`` itself left out): what the step ran, also if
+    the checkout moved during a long run; the revision the attempt stored when its processes
+    wrote nothing (no run row)."""
+    start = datetime.fromisoformat(attempt["started_utc"])
+    end = (start + timedelta(seconds=float(attempt["wall_s"]) + 1)).isoformat()
+    revisions = [
+        run["git_rev"]
+        for run in runs
+        if attempt["started_utc"] <= str(run.get("started_utc")) <= end
+        and not str(run.get("command", "")).startswith("diffbench studies")
+    ]
+    return ", ".join(dict.fromkeys(revisions)) or str(attempt.get("git_rev", "?"))
 
 
 def run_steps(
@@ -189,6 +211,7 @@ def run_steps(
         if only is not None and step.study not in only:
             continue
         before = record_counts(out / "store")
+        revision = git_revision()  # the checkout the step's process starts from
         started, clock = utc_now(), time.perf_counter()
         echo(f"[{index}/{len(steps)}] {step.command}")
         status, interrupted = None, False
@@ -208,7 +231,7 @@ def run_steps(
             **{f"new_{table}": after[table] - before[table] for table in sorted(after)},
             "store_empty_at_start": empty_at_start,
             "cpus": os.cpu_count(),
-            "git_rev": provenance()["git_rev"],
+            "git_rev": revision,
         }
         store = Store(out / "store")
         store.add_study_rows(STUDY, f"{index:02d} {step.command}", {"started": started}, [attempt])
@@ -247,6 +270,7 @@ def studies_timing(attempts: pd.DataFrame, steps: Sequence[Step]) -> pd.DataFram
             "command": step.command,
             "wall_s": float(mine["wall_s"].sum()) if len(finished) else float("nan"),
             "attempts": len(mine),
+            "git_rev": ", ".join(dict.fromkeys(mine.get("git_rev", pd.Series(dtype=str)))),
         }
         for table in ("cells", "tunings", "studies"):
             row[f"new_{table}"] = int(mine[f"new_{table}"].sum())
@@ -285,7 +309,20 @@ def write_studies_timing(
         command=table["command"].map(_without_jobs),
         minutes=shown(table["wall_s"] / 60, lambda m: f"{m:.2f}"),
         share=shown(100 * table["share"], lambda p: f"{p:.1f} %"),
-    )[["index", "study", "command", "minutes", "share", "attempts", "new_cells", "new_tunings"]]
+        code=[", ".join(r[:7] for r in revs.split(", ") if r) for revs in table["git_rev"]],
+    )[
+        [
+            "index",
+            "study",
+            "command",
+            "minutes",
+            "share",
+            "attempts",
+            "new_cells",
+            "new_tunings",
+            "code",
+        ]
+    ]
     lines = [
         "# make studies: each step's wall time",
         "",
@@ -297,7 +334,7 @@ def write_studies_timing(
         + ("" if finished.all() else " (— : a step not finished in this store, no time)")
         + ". A step's time is that of its first pass: its attempts up to the first that "
         "finished (an interrupted one and its resumption). new_cells, new_tunings: the records "
-        "the step added to the store.",
+        "the step added to the store; code: the revision its processes ran.",
         "",
         "By study (minutes of the finished steps):",
         "",

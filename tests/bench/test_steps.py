@@ -97,3 +97,36 @@ def test_a_step_is_the_same_step_whatever_its_processes():
     # the interrupted attempt and its resumption: the first pass; the rerun is not counted
     assert list(table["wall_s"]) == [90.0] and list(table["new_cells"]) == [8]
     assert list(table["attempts"]) == [2]
+
+
+def test_a_step_is_credited_with_the_revision_its_own_processes_ran():
+    """The checkout may move during a long run: each attempt gets the revision its processes
+    wrote in their runs' rows while it ran (not the ``diffbench studies`` process's own, not
+    another step's), and keeps its stored one when its processes wrote no row."""
+    import pandas as pd
+
+    attempts = pd.DataFrame(
+        [
+            {"started_utc": "2026-12-07T06:00:00+00:00", "wall_s": 60.0, "git_rev": "parent"},
+            {"started_utc": "2026-12-07T06:01:00+00:00", "wall_s": 30.0, "git_rev": "parent"},
+        ]
+    )
+    runs = [
+        {
+            "started_utc": "2026-12-07T05:59:59+00:00",
+            "git_rev": "p",
+            "command": "diffbench studies",
+        },
+        {
+            "started_utc": "2026-12-07T06:00:01+00:00",
+            "git_rev": "aaa",
+            "command": "diffbench run x",
+        },
+        {
+            "started_utc": "2026-12-07T06:00:30+00:00",
+            "git_rev": "p2",
+            "command": "diffbench studies",
+        },
+    ]
+    revisions = [studies._step_revision(row, runs) for _, row in attempts.iterrows()]
+    assert revisions == ["aaa", "parent"]
