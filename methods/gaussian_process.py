@@ -10,11 +10,13 @@ Long records: the posterior mean is computed for the whole record at once, witho
 On a uniform grid the covariance matrix is Toeplitz, so :math:`(K + r^2 I)\alpha = y` is
 solved by conjugate gradients whose products with K are FFT convolutions, preconditioned by
 the circulant matrix of the same kernel (whose inverse is the infinite-grid Wiener filter):
-O(n log n) per iteration, 5-40 iterations whatever n. Blocks were measured and set aside:
-the posterior mean's weights (the equivalent kernel) decay to 1e-6 of their peak only 10-23
-length scales away, to 1e-9 at 15-36 (more for less noise), so exact local blocks need margins
-of tens of length scales: thousands of samples at 1 kHz for a ~5 Hz smoother, too many for
-dense factorisations.
+O(n log n) per iteration, 5-40 iterations whatever n. Many right-hand sides at once (the ends
+check's probes) are preconditioned by the exact inverse instead, applied by the
+Gohberg-Semencul formula from its first column: 2-3 iterations each. Blocks were measured
+and set aside: the posterior mean's weights (the equivalent kernel) decay to 1e-6 of their
+peak only 10-23 length scales away, to 1e-9 at 15-36 (more for less noise), so exact local
+blocks need margins of tens of length scales: thousands of samples at 1 kHz for a ~5 Hz
+smoother, too many for dense factorisations.
 """
 
 from __future__ import annotations
