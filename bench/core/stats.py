@@ -208,6 +208,13 @@ def paired_comparison(first, second, level: float = 0.05) -> dict[str, float | b
     }
 
 
+RANK_DIGITS = 10
+"""Means that agree to this many significant digits rank as ties, in the order of their keys
+(:func:`ranking`): one computation reached by two paths (a setting rounded otherwise, a sum
+taken in another order) differs in its last bits, and the entries would otherwise swap places
+from one run to the next. A ranking's differences that matter are larger by many orders."""
+
+
 def ranking(
     rows: pd.DataFrame,
     metric: str,
@@ -216,7 +223,8 @@ def ranking(
     keys=("method", "params"),
     level: float = 0.05,
 ) -> pd.DataFrame:
-    """Entries ranked by the mean of ``metric`` over seeds (smaller is better), each with its
+    """Entries ranked by the mean of ``metric`` over seeds (smaller is better; means equal to
+    ``RANK_DIGITS`` significant digits in the order of their keys), each with its
     95 % confidence interval and a paired t-test against the next one down, with stated power.
 
     An entry is one combination of the ``keys`` columns (e.g. ``("method", "params")``, or
@@ -292,7 +300,11 @@ def ranking(
         )
         series.append(values)
         records.append(record)
-    table = pd.DataFrame(records).sort_values("mean", kind="stable").reset_index(drop=True)
+    table = pd.DataFrame(records)
+    # equal to RANK_DIGITS significant digits: a tie, in the order of the keys (groupby's)
+    table["_rank"] = [float(f"{mean:.{RANK_DIGITS - 1}e}") for mean in table["mean"]]
+    table = table.sort_values(["_rank", "_entry"], kind="stable").reset_index(drop=True)
+    table = table.drop(columns="_rank")
     comparisons = []
     for upper, lower in zip(table["_entry"].iloc[:-1], table["_entry"].iloc[1:], strict=True):
         a, b = series[upper], series[lower]

@@ -190,6 +190,23 @@ def test_ranking_orders_by_mean_and_marks_a_deterministic_win_significant():
     assert table.loc[2, ["vs_next_t_p", "detectable_difference_80"]].isna().all()
 
 
+def test_means_equal_but_for_their_last_bits_rank_in_the_order_of_their_keys():
+    """One computation reached by two paths differs in its last bits: its entries rank as a
+    tie (to RANK_DIGITS digits), in the order of their keys, whichever is smaller; a
+    difference in the tenth digit still ranks by value."""
+    from diffbench.bench.core.stats import RANK_DIGITS
+
+    base = np.array([4.843, 4.9, 4.7, 4.95, 4.8])
+    for nudge in (1, -1):
+        later = base.copy()
+        later[0] = np.nextafter(base[0], nudge * np.inf)  # a mean apart by one ulp of a seed
+        table = ranking(pd.DataFrame(_rows({"b": later, "a": base})), "rmse", 1, "interior")
+        assert list(table["method"]) == ["a", "b"]
+    apart = base * (1 + 10.0 ** -(RANK_DIGITS - 2))  # larger in the ninth digit
+    table = ranking(pd.DataFrame(_rows({"a": apart, "b": base})), "rmse", 1, "interior")
+    assert list(table["method"]) == ["b", "a"]
+
+
 def test_ranking_with_5_seeds_finds_a_large_consistent_difference_the_wilcoxon_rule_missed():
     """The old rule (t and Wilcoxon both < 0.05) could never say yes with 5 seeds: the exact
     Wilcoxon p is at least 2/2^5 = 0.0625. The t-test decides, and states its power."""
