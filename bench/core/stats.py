@@ -304,12 +304,16 @@ def ranking(
     # equal to RANK_DIGITS significant digits: a tie, in the order of the keys (groupby's)
     table["_rank"] = [float(f"{mean:.{RANK_DIGITS - 1}e}") for mean in table["mean"]]
     table = table.sort_values(["_rank", "_entry"], kind="stable").reset_index(drop=True)
-    table = table.drop(columns="_rank")
     comparisons = []
-    for upper, lower in zip(table["_entry"].iloc[:-1], table["_entry"].iloc[1:], strict=True):
-        a, b = series[upper], series[lower]
+    for k in range(len(table) - 1):
+        a, b = series[table["_entry"].iloc[k]], series[table["_entry"].iloc[k + 1]]
         common = a.index.intersection(b.index)
-        comparisons.append(paired_comparison(a[common].to_numpy(), b[common].to_numpy(), level))
+        result = paired_comparison(a[common].to_numpy(), b[common].to_numpy(), level)
+        if table["_rank"].iloc[k] == table["_rank"].iloc[k + 1]:
+            # a tie: a difference in the last bits, the same on every seed, is no evidence
+            result = {**result, "t_p": math.nan, "wilcoxon_p": math.nan, "significant": False}
+        comparisons.append(result)
+    table = table.drop(columns="_rank")
     nan = [float("nan")]
     for column, field in (
         ("vs_next_mean_difference", "mean_difference"),
