@@ -99,3 +99,33 @@ def test_a_kernels_output_does_not_depend_on_the_kernels_asked_with_it():
             alone, alone_valid = apply_central_fir(x, taps)
             assert np.array_equal(y, alone, equal_nan=True)
             assert np.array_equal(valid, alone_valid)
+
+
+@pytest.mark.parametrize("channels", [(), (3,), (64,)])
+def test_the_overlap_add_in_groups_of_blocks_is_the_whole_record_at_once_bit_for_bit(
+    channels, monkeypatch
+):
+    """Blocks transformed a group at a time (CHUNK_SAMPLES) give the bits of all blocks at
+    once: each block's transforms are the same, and each output sample adds the same two
+    terms (a block's head and the previous block's tail), whichever group they came from.
+    Groups of one block, of three (a record's blocks not a multiple of it) and all at once."""
+    rng = np.random.default_rng(17)
+    kernels = [rng.standard_normal(211), rng.standard_normal(211), rng.standard_normal(33)]
+    x = rng.standard_normal((30_011, *channels))
+    size = _fir._block_size(211)
+    results = []
+    for group in (1, 3, 10**6):
+        monkeypatch.setattr(_fir, "CHUNK_SAMPLES", group * size * max(1, int(np.prod(channels))))
+        results.append(_fir._shared_overlap_add(x, kernels))
+    for grouped in results[:-1]:
+        for y, whole in zip(grouped, results[-1], strict=True):
+            assert np.array_equal(y, whole)
+    reference = _scipy_central(x, kernels[0], "oa")
+    half = kernels[0].size // 2
+    scale = np.abs(kernels[0]).sum() * np.abs(x).max()
+    np.testing.assert_allclose(
+        results[0][0][half:-half],
+        reference[half:-half],
+        rtol=0,
+        atol=4 * np.finfo(float).eps * np.log2(size) * scale,
+    )
