@@ -393,6 +393,12 @@ class TuningSummary:
     them again; the others go on."""
 
 
+def _expected_work(job: TuningJob) -> tuple[int, int]:
+    """What orders the tunings longest first: the realisations each evaluation runs on, then
+    the derivative's order (a peer's ẍ is the peer applied twice, two calls an evaluation)."""
+    return (job.tuning_seeds, job.order)
+
+
 def tune_all(
     jobs_list: Sequence[TuningJob],
     store: Store,
@@ -404,15 +410,24 @@ def tune_all(
     call of a method limited to ``timeout_s``.
 
     Returns ``{job: record}`` (``record["params"]`` is empty when the method could not be
-    tuned on the task; a failed plugin's job is left out, see ``TuningSummary.failed``) and
-    what was reused or computed.
+    tuned on the task; a failed plugin's job is left out, see ``TuningSummary.failed``), in the
+    order of ``jobs_list``, and what was reused or computed.
+
+    The missing tunings start longest first (:func:`_expected_work`: on ``jobs`` workers the
+    last to start are the short ones, so the workers finish close together: a step of four
+    peer tunings, two of them for ẍ, no longer waits for one ẍ tuning begun last), and each is
+    stored as soon as it is done. A tuning's result does not depend on the order: each is
+    seeded on its own.
     """
     jobs_list = unique(jobs_list)
     store.refresh()
     found = {job: store.find_tuning(**job.fields()) for job in jobs_list}
-    missing = [job for job, record in found.items() if record is None]
-    results = ordered_map(functools.partial(_tune, timeout_s=timeout_s), missing, jobs)
-    paired = zip(missing, results, strict=True)
+    missing = sorted(
+        (job for job, record in found.items() if record is None), key=_expected_work, reverse=True
+    )
+    # each tuning stored as soon as it is done, whichever finishes first: a tuning that waited
+    # behind a longer one started before it would be lost to an interruption
+    paired = completed_map(functools.partial(_tune, timeout_s=timeout_s), missing, jobs)
     failed = []
     for job, result in progress(paired, len(missing)) if progress else paired:
         if isinstance(result, Failed):

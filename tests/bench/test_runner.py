@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from diffbench.bench import runner
+from diffbench.bench.core import executor
 from diffbench.bench.core import store as store_module
 from diffbench.bench.core.roles import Role
 from diffbench.bench.core.store import STORE_FILE, Store
@@ -388,3 +389,79 @@ def test_every_item_runs_with_one_blas_thread_here_and_on_workers(jobs):
     for _, found in completed_map(_blas_threads, [0, 1], jobs=jobs):
         assert found and set(found) == {BLAS_THREADS}
     assert outside() == before
+
+
+def _stub_tuning(job, timeout_s=None):
+    """A tuning record of ``job`` (its method's defaults), without tuning; the ẍ Kalman one
+    first waits until the store holds the ẋ one (the store of ``_STUB_STORE``)."""
+    waited = None
+    if job.order == 2:
+        deadline = time.monotonic() + 60
+        with contextlib.closing(sqlite3.connect(_STUB_STORE[0])) as connection:
+            while time.monotonic() < deadline:
+                query = 'SELECT count(*) FROM tunings WHERE method = ? AND "order" = 1'
+                if connection.execute(query, (job.method,)).fetchone()[0]:
+                    waited = True
+                    break
+                time.sleep(0.05)
+            else:
+                waited = False
+    from diffbench import methods
+
+    params = methods.get(job.method).params()
+    return {
+        "params": params,
+        "loss": 1.0 if waited is not False else 2.0,
+        "evaluations": 1,
+        "seconds": 0.0,
+    }
+
+
+_STUB_STORE: list[Path] = []
+
+
+def test_tunings_start_longest_first_and_come_back_in_the_order_asked(tmp_path, monkeypatch):
+    """More tuning seeds first, then ẍ before ẋ; the records returned in the order asked."""
+    started = []
+
+    def record_order(job, timeout_s=None):
+        started.append((job.method, job.order, job.tuning_seeds))
+        return {"params": {}, "loss": float("inf"), "evaluations": 0, "seconds": 0.0}
+
+    monkeypatch.setattr(runner, "_tune", record_order)
+    jobs = [
+        runner.TuningJob("paper-signal", name, "oracle", order, 10_000, tuning_seeds=seeds)
+        for seeds in (1, 10)
+        for name in ("kalman", "jacobi")
+        for order in (1, 2)
+    ]
+    found, summary = runner.tune_all(jobs, Store(tmp_path / "s"))
+    assert started == [
+        ("kalman", 2, 10),
+        ("jacobi", 2, 10),
+        ("kalman", 1, 10),
+        ("jacobi", 1, 10),
+        ("kalman", 2, 1),
+        ("jacobi", 2, 1),
+        ("kalman", 1, 1),
+        ("jacobi", 1, 1),
+    ]
+    assert list(found) == jobs and summary.computed == len(jobs)
+
+
+@pytest.mark.skipif(not executor.forks(), reason="the stub reaches workers by fork only")
+def test_a_tuning_is_stored_as_soon_as_it_is_done_not_after_those_begun_before_it(
+    tmp_path, monkeypatch
+):
+    """On two workers the ẍ tuning (begun first) waits until the store holds the ẋ one
+    (begun second): which only happens if each tuning is stored when it finishes. Stored in
+    the order the store got them, ẋ first; an interruption during the ẍ tuning keeps ẋ."""
+    store = Store(tmp_path / "s")
+    _STUB_STORE[:] = [store.path]
+    monkeypatch.setattr(runner, "_tune", _stub_tuning)
+    jobs = [runner.TuningJob("paper-signal", "kalman", "oracle", order, 10_000) for order in (1, 2)]
+    found, _ = runner.tune_all(jobs, store, jobs=2)
+    assert found[jobs[1]]["loss"] == 1.0  # the ẍ tuning saw the ẋ one stored
+    with contextlib.closing(sqlite3.connect(store.path)) as connection:
+        stored = connection.execute('SELECT "order" FROM tunings ORDER BY id').fetchall()
+    assert stored == [(1,), (2,)]
