@@ -222,6 +222,7 @@ def ranking(
     region: str,
     keys=("method", "params"),
     level: float = 0.05,
+    compared: int | None = None,
 ) -> pd.DataFrame:
     """Entries ranked by the mean of ``metric`` over seeds (smaller is better; means equal to
     ``RANK_DIGITS`` significant digits in the order of their keys), each with its
@@ -250,6 +251,10 @@ def ranking(
         Columns identifying one entry, at least one; each must be a column of ``rows``.
     level : float
         Two-sided significance level of the t-test, in (0, 1).
+    compared : int, optional
+        Compare only the first ``compared`` entries with the next one down (a caller that reads
+        the winner's test alone: 1); the later rows' comparison columns are NaN / NA, every
+        other column is the same. Default: every entry.
 
     Returns
     -------
@@ -274,6 +279,10 @@ def ranking(
                 f"ranking); it has {list(rows.columns)}"
             )
     _check_level(level)
+    if compared is not None and (
+        isinstance(compared, bool) or not isinstance(compared, int) or compared < 0
+    ):
+        raise ValueError(f"`compared` must be a whole number >= 0 or None, got {compared!r}")
     chosen = rows[
         (rows["metric"] == metric) & (rows["order"] == order) & (rows["region"] == region)
     ]
@@ -305,7 +314,8 @@ def ranking(
     table["_rank"] = [float(f"{mean:.{RANK_DIGITS - 1}e}") for mean in table["mean"]]
     table = table.sort_values(["_rank", "_entry"], kind="stable").reset_index(drop=True)
     comparisons = []
-    for k in range(len(table) - 1):
+    last = len(table) - 1 if compared is None else min(compared, len(table) - 1)
+    for k in range(last):
         a, b = series[table["_entry"].iloc[k]], series[table["_entry"].iloc[k + 1]]
         common = a.index.intersection(b.index)
         result = paired_comparison(a[common].to_numpy(), b[common].to_numpy(), level)
@@ -314,7 +324,7 @@ def ranking(
             result = {**result, "t_p": math.nan, "wilcoxon_p": math.nan, "significant": False}
         comparisons.append(result)
     table = table.drop(columns="_rank")
-    nan = [float("nan")]
+    nan = [float("nan")] * (len(table) - last)
     for column, field in (
         ("vs_next_mean_difference", "mean_difference"),
         ("vs_next_t_p", "t_p"),
@@ -323,6 +333,7 @@ def ranking(
     ):
         table[column] = [result[field] for result in comparisons] + nan
     table["significant_vs_next"] = pd.array(
-        [result["significant"] for result in comparisons] + [pd.NA], dtype="boolean"
+        [result["significant"] for result in comparisons] + [pd.NA] * (len(table) - last),
+        dtype="boolean",
     )
     return table.drop(columns="_entry")

@@ -282,3 +282,32 @@ def test_ranking_refuses_missing_columns_and_bad_keys():
         ranking(rows, "rmse", 1, "interior", level=0.0)
     with pytest.raises(ValueError, match="no stored rows for 'rmse', order 2"):
         ranking(rows, "rmse", 2, "interior")
+
+
+def test_a_ranking_that_compares_the_first_entries_only_is_the_full_one_elsewhere_nan():
+    """``compared=k``: the first k rows are the full ranking's row for row (their tests
+    against the next one down included), every row's mean, interval and seeds too; the later
+    rows' comparison columns are NaN / NA. Bad values name the argument."""
+    rng = np.random.default_rng(3)
+    base = rng.normal(5, 1, size=12)
+    scores = {name: base + shift + rng.normal(0, 0.3, 12) for shift, name in enumerate("abcde")}
+    rows = pd.DataFrame(_rows(scores))
+    full = ranking(rows, "rmse", 1, "interior")
+    comparison = [
+        "vs_next_mean_difference",
+        "vs_next_t_p",
+        "vs_next_wilcoxon_p",
+        "detectable_difference_80",
+        "significant_vs_next",
+    ]
+    for k in (0, 1, 3, 4, 10):
+        table = ranking(rows, "rmse", 1, "interior", compared=k)
+        assert list(table.columns) == list(full.columns)
+        shown = min(k, len(full) - 1)
+        pd.testing.assert_frame_equal(table.iloc[:shown], full.iloc[:shown])
+        pd.testing.assert_frame_equal(table.drop(columns=comparison), full.drop(columns=comparison))
+        assert table.loc[shown:, comparison].isna().all().all()
+        assert table["significant_vs_next"].dtype == "boolean"
+    for bad in (-1, 1.5, True):
+        with pytest.raises(ValueError, match="`compared` must be a whole number >= 0"):
+            ranking(rows, "rmse", 1, "interior", compared=bad)
