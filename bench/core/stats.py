@@ -25,6 +25,8 @@ import numpy as np
 import pandas as pd
 from scipy import optimize, stats
 
+from diffbench.signals._checks import check_whole
+
 #: Columns ``ranking`` reads besides the entry keys.
 _RANKING_COLUMNS = ("metric", "order", "region", "seed", "value")
 
@@ -279,10 +281,8 @@ def ranking(
                 f"ranking); it has {list(rows.columns)}"
             )
     _check_level(level)
-    if compared is not None and (
-        isinstance(compared, bool) or not isinstance(compared, int) or compared < 0
-    ):
-        raise ValueError(f"`compared` must be a whole number >= 0 or None, got {compared!r}")
+    if compared is not None:
+        compared = check_whole("compared", compared, ge=0)
     chosen = rows[
         (rows["metric"] == metric) & (rows["order"] == order) & (rows["region"] == region)
     ]
@@ -315,6 +315,7 @@ def ranking(
     table = table.sort_values(["_rank", "_entry"], kind="stable").reset_index(drop=True)
     comparisons = []
     last = len(table) - 1 if compared is None else min(compared, len(table) - 1)
+    uncompared = len(table) - last  # rows without a comparison: NaN / NA
     for k in range(last):
         a, b = series[table["_entry"].iloc[k]], series[table["_entry"].iloc[k + 1]]
         common = a.index.intersection(b.index)
@@ -324,7 +325,7 @@ def ranking(
             result = {**result, "t_p": math.nan, "wilcoxon_p": math.nan, "significant": False}
         comparisons.append(result)
     table = table.drop(columns="_rank")
-    nan = [float("nan")] * (len(table) - last)
+    nan = [float("nan")] * uncompared
     for column, field in (
         ("vs_next_mean_difference", "mean_difference"),
         ("vs_next_t_p", "t_p"),
@@ -333,7 +334,7 @@ def ranking(
     ):
         table[column] = [result[field] for result in comparisons] + nan
     table["significant_vs_next"] = pd.array(
-        [result["significant"] for result in comparisons] + [pd.NA] * (len(table) - last),
+        [result["significant"] for result in comparisons] + [pd.NA] * uncompared,
         dtype="boolean",
     )
     return table.drop(columns="_entry")

@@ -308,6 +308,10 @@ def test_a_ranking_that_compares_the_first_entries_only_is_the_full_one_elsewher
         pd.testing.assert_frame_equal(table.drop(columns=comparison), full.drop(columns=comparison))
         assert table.loc[shown:, comparison].isna().all().all()
         assert table["significant_vs_next"].dtype == "boolean"
+    pd.testing.assert_frame_equal(
+        ranking(rows, "rmse", 1, "interior", compared=np.int64(1)),
+        ranking(rows, "rmse", 1, "interior", compared=1),
+    )
     for bad in (-1, 1.5, True):
         with pytest.raises(ValueError, match="`compared` must be a whole number >= 0"):
             ranking(rows, "rmse", 1, "interior", compared=bad)
