@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -44,6 +45,22 @@ def gaussian_kernel_taps(order: int, sigma_s: float, dt: float) -> np.ndarray:
     c = np.sum(u**2 * g) / g.sum()
     shape = (u**2 - c) * g
     return 2 * shape / np.sum(u**2 * shape)
+
+
+@functools.lru_cache(maxsize=256)
+def _cached_taps(order: int, sigma_s: float, dt: float) -> np.ndarray:
+    # a tuning and every call at a setting read its taps again: computed once, read-only
+    taps = gaussian_kernel_taps(order, sigma_s, dt)
+    taps.flags.writeable = False
+    return taps
+
+
+@functools.lru_cache(maxsize=256)
+def _cached_weights(half_width: int, sigma_s: float, dt: float) -> np.ndarray:
+    # the Gaussian weights of the end fits (GaussianKernel._kernel on the grid), read-only
+    weights = np.exp(-0.5 * (np.arange(-half_width, half_width + 1) * dt / sigma_s) ** 2)
+    weights.flags.writeable = False
+    return weights
 
 
 @register("gaussian_kernel")
@@ -123,7 +140,7 @@ class GaussianKernel(FirMethod):
 
     def taps(self, order: int, dt: float) -> np.ndarray:
         self._half_width(dt)
-        return gaussian_kernel_taps(order, self.sigma_s, dt)
+        return _cached_taps(order, float(self.sigma_s), float(dt))
 
     def end_reach(self, dt: float) -> int | None:
         return self._half_width(dt)
@@ -134,7 +151,7 @@ class GaussianKernel(FirMethod):
     def _estimate(self, x, dt, orders):
         central, _ = super()._estimate(x, dt, orders)
         n, half_width = x.shape[0], self._half_width(dt)
-        weights = self._kernel(np.arange(-half_width, half_width + 1) * dt)
+        weights = _cached_weights(half_width, float(self.sigma_s), float(dt))
         flat = x.reshape(n, -1)
         values = {}
         for order in orders:

@@ -33,6 +33,26 @@ def test_moments_are_exact_and_the_shape_is_the_gaussians_derivative(sigma_s):
     )
 
 
+def test_cached_taps_and_end_weights_are_the_fresh_ones_and_read_only():
+    """A tuning reads a setting's taps and end weights again and again: cached, read-only,
+    the same numbers as computed afresh (so a caller cannot change what the next call
+    filters with)."""
+    method = methods.get("gaussian_kernel", sigma_s=0.013)
+    for order in (0, 1, 2):
+        taps = method.taps(order, DT)
+        np.testing.assert_array_equal(taps, gaussian_kernel_taps(order, 0.013, DT))
+        assert not taps.flags.writeable
+        with pytest.raises(ValueError, match="read-only"):
+            taps[0] = 1.0
+    half_width = method._half_width(DT)
+    offsets = np.arange(-half_width, half_width + 1) * DT
+    from diffbench.methods.gaussian_kernel import _cached_weights
+
+    weights = _cached_weights(half_width, 0.013, DT)
+    np.testing.assert_array_equal(weights, method._kernel(offsets))
+    assert not weights.flags.writeable
+
+
 def test_the_response_is_the_gaussians():
     method = methods.get("gaussian_kernel", sigma_s=0.01)
     f = np.array([2.0, 10.0, 20.0])
