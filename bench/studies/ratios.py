@@ -171,6 +171,10 @@ def _paper_signal_head(samples: int, margin: int):
     return whole.stretch(slice(0, samples), interior)
 
 
+ENDS_SHARE_SETTINGS = 40
+"""The settings of a tuning's history whose evaluations :func:`ends_check_share` times."""
+
+
 def tuning_against_pynumdiff(
     samples: int = 1000, margin: int = 150, names=None, repeats: int = 3
 ) -> list[dict]:
@@ -228,6 +232,7 @@ def tuning_against_pynumdiff(
             np.sqrt(np.mean((function(x, DT, **params)[1][inside] - truth[inside]) ** 2))
         )
         reach_s = min(_time_to_reach(run, peer_rmse) for run in runs)
+        settings = [params for params, _ in ours.history[:ENDS_SHARE_SETTINGS]]
         rows.append(
             {
                 "comparison": "oracle tuning for ẋ to PyNumDiff's RMSE, 1000 samples",
@@ -248,9 +253,45 @@ def tuning_against_pynumdiff(
                 "ours_params": ours.params,
                 "peer_params": params,
                 "ours_evaluations": ours.evaluations,
+                "ends_check_share": ends_check_share(name, record, settings),
             }
         )
     return rows
+
+
+def ends_check_share(name: str, record, settings, order: int = 1) -> float:
+    """The share of an oracle tuning's evaluation of ``name`` at a new setting that its ends
+    check takes (:func:`diffbench.methods._ends.trusted_samples`, which marks the end samples
+    a linear method can be trusted on): over ``settings`` (parameter dicts, e.g. a tuning's
+    history), the check's seconds over the evaluation's, each evaluation timed as the tuner
+    makes it (the interior read, with its valid marks) with the methods' caches emptied
+    first, the check timed again alone with only its own cache emptied (the filter design it
+    reads already built, as in the evaluation). 0 where the check cannot reach the interior
+    read (the evaluation skips it)."""
+    from diffbench.bench.core.scores import estimate_on
+    from diffbench.methods._ends import _trusted, check_reaches, trusted_samples
+
+    cls = methods.method_class(name)
+    inside = np.asarray(record.interior, dtype=bool)
+    reads = (int(np.argmax(inside)), int(inside.size - 1 - np.argmax(inside[::-1])))
+    n, dt = inside.size, record.dt_s
+    evaluations, checks = 0.0, 0.0
+    for params in settings:
+        method = cls(**params)
+        forget_settings()
+        start = time.perf_counter()
+        try:
+            estimate_on(method, record, orders=(order,), reads=reads)
+        except ValueError:  # a setting the record refuses: the tuner's +inf, no check
+            continue
+        evaluations += time.perf_counter() - start
+        reach = method.end_reach(dt) if cls.linear else None
+        if reach and check_reaches(method, n, dt, *reads):
+            _trusted.cache_clear()
+            start = time.perf_counter()
+            trusted_samples(method, n, dt, (order,))
+            checks += time.perf_counter() - start
+    return checks / evaluations if evaluations else float("nan")
 
 
 def _time_to_reach(result: tuning.TuningResult, rmse: float) -> float:
@@ -377,17 +418,21 @@ def write_ratios(directory: Path, table: pd.DataFrame) -> list[Path]:
             "every setting included (PyNumDiff has none), the best of three runs, each "
             "with the methods' caches emptied first. *to PyNumDiff's RMSE*: from the start "
             "of our search to its first setting at least as accurate as PyNumDiff's "
-            "result (the time the ratio above takes); *whole*: to the end of our search.",
+            "result (the time the ratio above takes); *whole*: to the end of our search; "
+            f"*ends check*: its share of an evaluation at a new setting (the first "
+            f"{ENDS_SHARE_SETTINGS} settings of our search; 0 where the method's ends cannot "
+            "reach the samples scored, so the check is skipped).",
             "",
-            "| ours | to PyNumDiff's RMSE (s) | whole (s) | evaluations | RMSE ẋ | setting "
-            "| PyNumDiff | serial (s) | pool (s) | RMSE ẋ | setting |",
-            "|---|---:|---:|---:|---:|---|---|---:|---:|---:|---|",
+            "| ours | to PyNumDiff's RMSE (s) | whole (s) | evaluations | ends check | RMSE ẋ "
+            "| setting | PyNumDiff | serial (s) | pool (s) | RMSE ẋ | setting |",
+            "|---|---:|---:|---:|---:|---:|---|---|---:|---:|---:|---|",
         ]
         for row in tunings.itertuples(index=False):
             reach = f"{row.ours_s:.3g}" if np.isfinite(row.ours_s) else "not reached"
             lines.append(
                 f"| {row.ours} | {reach} | {row.tuning_s:.3g} | {int(row.ours_evaluations)} | "
-                f"{row.ours_rmse:.4g} | {_setting(row.ours_params)} | {row.peer} | "
+                f"{row.ends_check_share:.0%} | {row.ours_rmse:.4g} | "
+                f"{_setting(row.ours_params)} | {row.peer} | "
                 f"{row.peer_serial_s:.3g} | {row.peer_pool_s:.3g} | "
                 f"{row.peer_rmse:.4g} | {_setting(row.peer_params)} |"
             )

@@ -128,3 +128,17 @@ def test_the_new_setting_row_times_fresh_kalman_settings_against_rtsdiff(tmp_pat
     markdown = ratios.write_ratios(tmp_path, pd.DataFrame([row]))[0].read_text(encoding="utf-8")
     assert "| Kalman smoother, a new setting (300 samples) |" in markdown
     assert "| s per setting |" in markdown and "| — | — |" in markdown  # no target, agreement
+
+
+def test_the_ends_check_share_is_zero_where_the_check_cannot_reach_the_samples_scored():
+    """The interior read starts 150 samples in: a 51-sample Savitzky-Golay window's ends
+    (25 samples) cannot reach it, so the evaluation skips the check (share 0); a Butterworth
+    filter's start-up (684 samples at the paper preset) can, and its check is part of the
+    evaluation's time, not all of it."""
+    record = ratios._paper_signal_head(1000, 150)
+    short = {"window_s": 0.05, "degree": 3}
+    assert ratios.ends_check_share("savitzky_golay", record, [short]) == 0.0
+    share = ratios.ends_check_share("butterworth", record, [{"order": 6, "cutoff_hz": 25.0}])
+    assert 0.0 < share < 1.0
+    refused = {"order": 6, "cutoff_hz": 0.2}  # below 1e-3 of Nyquist: +inf to the tuner
+    assert np.isnan(ratios.ends_check_share("butterworth", record, [refused]))

@@ -74,6 +74,7 @@ def test_the_tuning_ratio_row_times_a_fresh_tuning_against_the_fastest_peer_run(
     # the timed runs found what a tuning finds (their caches emptied first)
     assert (row["ours_params"], row["ours_rmse"]) == (again.params, again.loss)
     assert row["ours_evaluations"] == again.evaluations
+    assert 0.0 <= row["ends_check_share"] < 1.0
     assert row["peer_s"] == min(row["peer_serial_s"], row["peer_pool_s"])
     assert row["ratio"] == pytest.approx(row["peer_s"] / row["ours_s"])
     # the ratio's time is to the first setting as accurate as the peer's, within the search's
