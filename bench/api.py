@@ -122,6 +122,7 @@ def run(
     robot_model: Path | None = None,
     scenarios: Iterable[str] | None = None,
     progress: bool = False,
+    report: bool = True,
     echo: Echo | None = None,
 ) -> RunResult:
     """Run every method at its preset on a task (a study: its tunings first), write its report.
@@ -150,6 +151,8 @@ def run(
         (default theirs).
     progress : bool
         Show progress bars on stderr.
+    report : bool
+        Write the task's report (False: only store, for a later command on the task to report).
     echo : callable, optional
         Called with each line of news (tunings and cells computed).
 
@@ -180,7 +183,8 @@ def run(
         with checked():
             items = task.items(names, task.seeds(seeds))
         rows, summary = _run_items(task, items, open_store(out), jobs, progress, echo)
-        return RunResult(None, summary, runner.report_items(task, rows, Path(out)))
+        written = runner.report_items(task, rows, Path(out)) if report else []
+        return RunResult(None, summary, written)
     with checked():
         seed_list = task.seeds(seeds)
         jobs_list = task.tuning_jobs(names, orders)
@@ -191,7 +195,8 @@ def run(
         found, tunings = _tune(jobs_list, store, jobs, timeout_s, progress, echo)
         cells = task.plan(found, names, seed_list)
     summary = _run_cells(cells, store, jobs, timeout_s, progress, echo)
-    return RunResult(tunings, summary, runner.report_task(task, store, Path(out)))
+    written = runner.report_task(task, store, Path(out)) if report else []
+    return RunResult(tunings, summary, written)
 
 
 DEFAULT_CUTOFF_HZ = 20.0
@@ -216,6 +221,7 @@ def tune(
     timeout_s: float = runner.DEFAULT_TIMEOUT_S,
     out: Path = Path("results"),
     progress: bool = False,
+    report: bool = True,
     echo: Echo | None = None,
 ) -> RunResult:
     """Tune methods on a signal task's tuning seed (stored, reused), score them on other seeds.
@@ -245,7 +251,7 @@ def tune(
         sharing the budget of all (default: every combination, each with its own budget).
     tuned_on : str, optional
         A signal task of the same step to tune on instead (rows say so; scored on ``task``).
-    seeds, jobs, timeout_s, out, progress, echo
+    seeds, jobs, timeout_s, out, progress, report, echo
         As for :func:`run`; ``echo`` also gets each tuning found.
 
     Returns
@@ -329,7 +335,8 @@ def tune(
     entries = runner.tuned_entries(found, scored=task.name)
     cells = [cell for entry in entries for cell in entry.cells(task.name, seed_list)]
     summary = _run_cells(cells, store, jobs, timeout_s, progress, echo)
-    return RunResult(tunings, summary, runner.report_task(task, store, Path(out)), found)
+    written = runner.report_task(task, store, Path(out)) if report else []
+    return RunResult(tunings, summary, written, found)
 
 
 def _tune(
@@ -369,14 +376,7 @@ def _run_cells(cells, store: Store, jobs: Workers, timeout_s: float, progress, e
             "run the same command to resume"
         )
         raise
-    text = f"{summary.computed} cells computed, {summary.skipped} already stored"
-    if summary.reused:
-        text += f", {summary.reused} the same computation as another cell (its scores taken)"
-    if summary.stored_by_others:
-        text += f", {summary.stored_by_others} stored meanwhile by another writer"
-    if summary.failed:
-        text += f", {len(summary.failed)} failed (recorded; the next run tries them again)"
-    say(echo, text)
+    say(echo, summary.news())
     for cell, reason in summary.failed:
         warnings.warn(
             f"cell failed: {cell.method} on {cell.task} seed {cell.seed}: {reason}",

@@ -37,9 +37,9 @@ WORK = ("jobs", "executor", "scheduler", "timeout", "progress")
 ADVICE_WORK = ("jobs", "executor", "scheduler", "timeout2", "progress")  # per call, not cell
 ITEMS = ("jobs", "executor", "scheduler", "progress")  # an item study has no per-call timeout
 PLUG = ("plugins",)
-RUN = (*OUT, *WORK, "seeds", "methods", *PLUG)
+RUN = (*OUT, *WORK, "seeds", "methods", *PLUG, "report")
 TUNE = (*OUT, *WORK, "seeds", *PLUG, "method", "task2", "criteria", "orders2", "cutoff_hz")
-TUNE = (*TUNE, "tuning_seed", "tuning_seeds", "budget", "screen", "region", "tuned_on")
+TUNE = (*TUNE, "tuning_seed", "tuning_seeds", "budget", "screen", "region", "tuned_on", "report")
 SWEEP = (*OUT, *WORK, *PLUG, "methods", "seeds2", "orders3")
 ADVICE = ("methods3", "causal", "orders4", "budget2", "out2")
 

@@ -104,6 +104,15 @@ OPTIONS: dict[str, tuple[tuple[str, ...], dict[str, Any]]] = {
         ("--no-progress",),
         dict(dest="progress", action="store_false", help="no progress bar"),
     ),
+    "report": (
+        ("--no-report",),
+        dict(
+            dest="report",
+            action="store_false",
+            help="store the results but write no report (a later command on the task, or "
+            "`diffbench report TASK`, writes it from the store)",
+        ),
+    ),
     "seeds": (
         ("--seeds",),
         dict(

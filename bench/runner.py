@@ -116,6 +116,17 @@ class RunSummary:
     """The cells whose computation failed (:class:`Failed`) and why: recorded in the store's
     failures, not stored as finished, so the next run computes them again."""
 
+    def news(self) -> str:
+        """The line saying what the run did (the command line prints it)."""
+        text = f"{self.computed} cells computed, {self.skipped} already stored"
+        if self.reused:
+            text += f", {self.reused} the same computation as another cell (its scores taken)"
+        if self.stored_by_others:
+            text += f", {self.stored_by_others} stored meanwhile by another writer"
+        if self.failed:
+            text += f", {len(self.failed)} failed (recorded; the next run tries them again)"
+        return text
+
 
 def run(
     cells: Sequence[Cell],

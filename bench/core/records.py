@@ -5,9 +5,11 @@ imports once."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import gc
 import json
-from collections.abc import Callable, Container, Iterable, Mapping
+from collections.abc import Callable, Container, Iterable, Iterator, Mapping
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -44,6 +46,22 @@ class StoreError(ValueError):
     """A store this code cannot use as it is (another format version, not a store at all, a
     damaged database): the message says what was found and what to do. Nothing is changed on
     disk."""
+
+
+@contextlib.contextmanager
+def collector_paused() -> Iterator[None]:
+    """Python's cyclic garbage collector paused while records are decoded: each record's
+    JSON makes dicts and lists that all stay alive, so the collector's passes over the
+    growing heap found nothing and took most of the time (a store of 58k cells read in
+    4.5 s, 2.2-2.8 s of it collection passes). Nothing decoded is cyclic garbage; the
+    collector runs again after."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
 
 
 # --- tables --------------------------------------------------------------------------------

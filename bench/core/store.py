@@ -66,6 +66,7 @@ from diffbench.bench.core.records import (
     canonical,
     cell_key,
     cells_frame,
+    collector_paused,
     computation_key,
     expand_params,
     failed_cells,
@@ -162,11 +163,12 @@ class RecordTable:
         """Read the records other writers stored since the last read."""
         self._store._read_runs()
         rows = self._store._connection().execute(self._select, (self._last_id,)).fetchall()
-        for row in rows:
-            record = self.schema.record(row[1:-1])
-            record["run"] = row[-1]
-            self.records.setdefault(record["key"], record)
-            self._last_id = row[0]
+        with collector_paused():
+            for row in rows:
+                record = self.schema.record(row[1:-1])
+                record["run"] = row[-1]
+                self.records.setdefault(record["key"], record)
+                self._last_id = row[0]
 
     def append(self, record: Mapping[str, Any]) -> bool:
         """Store ``record`` (a dict with ``key``) unless its key is stored; True if written."""

@@ -15,7 +15,9 @@ import pandas as pd
 
 from diffbench import methods, signals
 from diffbench.bench.core import tuning
+from diffbench.bench.core.scores import estimate_on
 from diffbench.bench.studies.timing import DT, _best_seconds, _package, noisy_sine
+from diffbench.methods._ends import _trusted, check_reaches, trusted_samples
 from diffbench.methods.kalman import initial_state
 
 
@@ -268,9 +270,6 @@ def ends_check_share(name: str, record, settings, order: int = 1) -> float:
     first, the check timed again alone with only its own cache emptied (the filter design it
     reads already built, as in the evaluation). 0 where the check cannot reach the interior
     read (the evaluation skips it)."""
-    from diffbench.bench.core.scores import estimate_on
-    from diffbench.methods._ends import _trusted, check_reaches, trusted_samples
-
     cls = methods.method_class(name)
     inside = np.asarray(record.interior, dtype=bool)
     reads = (int(np.argmax(inside)), int(inside.size - 1 - np.argmax(inside[::-1])))

@@ -88,6 +88,30 @@ def _paper_tunings(task: str, seeds: int) -> list[Step]:
     ]
 
 
+REPORTING = {"run": 1, "tune": 2}
+"""The commands whose report a later one on the same task rewrites: the position of the task
+in their arguments."""
+
+
+def _reports_once(steps: list[Step]) -> list[Step]:
+    """``steps`` with ``--no-report`` on each ``run`` or ``tune`` whose task a later one runs
+    on: each task's report is written once, by its last step, from everything the store then
+    holds (a report read the whole store and drew its figures again at every step: 15-20 s a
+    step on the paper-signal records)."""
+
+    def task(step: Step) -> str | None:
+        where = REPORTING.get(step.argv[0])
+        return None if where is None else step.argv[where]
+
+    last = {task(step): index for index, step in enumerate(steps) if task(step) is not None}
+    return [
+        Step(step.study, (*step.argv, "--no-report"), step.out_under, step.takes_out)
+        if task(step) is not None and last[task(step)] != index
+        else step
+        for index, step in enumerate(steps)
+    ]
+
+
 def studies_steps(seeds: int = 20, jobs: int = 2) -> list[Step]:
     """Every step of ``make studies``, in order, at ``seeds`` scored seeds (the online, grid
     and limit studies keep their own counts) and ``jobs`` worker processes."""
@@ -127,7 +151,7 @@ def studies_steps(seeds: int = 20, jobs: int = 2) -> list[Step]:
         Step("pynumdiff-suite", ("run", "pynumdiff-suite")),
         Step("sindy", ("run", "sindy")),
     ]
-    steps = [Step(s.study, (*s.argv, *work), s.out_under) for s in steps]
+    steps = _reports_once([Step(s.study, (*s.argv, *work), s.out_under) for s in steps])
     example = "recommend-example"
     record = f"{{out}}/{example}/pendulum.csv"
     advice = ("--time", "t", "--column", "x", "--dt", "0.002", "--methods", f"native,{GRID_PEERS}")

@@ -86,6 +86,38 @@ def test_run_writes_store_and_tables_then_resumes(tmp_path, capsys):
     assert main(["report", "paper-signal", "--out", str(tmp_path)]) == 0
 
 
+def test_no_report_stores_the_results_and_a_later_command_writes_the_same_report(tmp_path, capsys):
+    """``--no-report`` (make studies between the steps of one task): the cells and tunings
+    are stored, no report is written; the next command on the task (here a tuning) writes the
+    report of everything stored, the files one written after each step would end as."""
+    cells = ["run", "paper-signal", "--seeds", "2", "--no-progress", "--methods", "kalman"]
+    tune = ["tune", "kalman", "paper-signal", "--seeds", "2", "--orders", "1", "--no-progress"]
+    quiet, every = tmp_path / "quiet", tmp_path / "every"
+    assert main([*cells, "--out", str(quiet), "--no-report"]) == 0
+    printed = capsys.readouterr().out
+    assert "2 cells computed" in printed and "rmse.md" not in printed
+    assert not (quiet / "paper-signal").exists()
+    assert len(Store(quiet / "store").cells.records) == 2
+    assert main([*tune, "--out", str(quiet)]) == 0
+    assert main([*cells, "--out", str(every)]) == 0
+    assert main([*tune, "--out", str(every)]) == 0
+    written = sorted(p.relative_to(every) for p in (every / "paper-signal").rglob("*"))
+    assert written and written == sorted(
+        p.relative_to(quiet) for p in (quiet / "paper-signal").rglob("*")
+    )
+    import pandas as pd
+
+    for path in written:
+        if path.suffix == ".csv":  # a tuning's seconds are its own run's: the rest is the same
+            quiet_table, every_table = pd.read_csv(quiet / path), pd.read_csv(every / path)
+            seconds = [c for c in every_table.columns if c.endswith(" s")]
+            pd.testing.assert_frame_equal(
+                quiet_table.drop(columns=seconds), every_table.drop(columns=seconds)
+            )
+        elif path.suffix == ".md" and path.stem != "tuning":
+            assert (quiet / path).read_bytes() == (every / path).read_bytes(), path
+
+
 def test_rankings_on_the_whole_record_take_every_sample_each_entry_estimates(tmp_path):
     """Jacobi's paper-signal preset marks part of its ends not valid (2 % of the record for
     ẋ) but estimates every sample: it is ranked on the whole record by its RMSE over every

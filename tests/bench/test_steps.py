@@ -27,6 +27,26 @@ def test_every_step_is_a_command_line_diffbench_parses(tmp_path):
     assert {step.study for step in every} >= {"grid", "limit", "sindy", "identify-dfki"}
 
 
+def test_each_tasks_report_is_written_once_by_its_last_step():
+    """Every run or tune step but a task's last carries ``--no-report``; the last writes the
+    report of all the task's steps; the other commands (recommend-check, export, recommend)
+    are left as they are."""
+    every = studies.studies_steps(seeds=20, jobs=2)
+
+    def task(step):
+        where = studies.REPORTING.get(step.argv[0])
+        return None if where is None else step.argv[where]
+
+    tasks = [task(step) for step in every]
+    for index, (step, name) in enumerate(zip(every, tasks, strict=True)):
+        quiet = "--no-report" in step.argv
+        assert quiet == (name is not None and name in tasks[index + 1 :]), step.command
+    last = {name: index for index, name in enumerate(tasks) if name is not None}
+    assert every[last["paper-signal"]].argv[:2] == ("tune", "gaussian_process,pynumdiff.rbfdiff")
+    quiet = sum("--no-report" in step.argv for step in every)
+    assert quiet == 20  # the paper-signal records' 24 steps, less the last of each of the 4
+
+
 def test_attempts_are_stored_with_the_records_they_added(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # a relative output folder, as make studies gives
     steps = [

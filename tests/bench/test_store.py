@@ -14,6 +14,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from diffbench.bench.core.records import Schema
 from diffbench.bench.core.roles import Role
 from diffbench.bench.core.store import (
     STORE_FILE,
@@ -85,6 +86,35 @@ def test_records_round_trip_exactly_with_provenance_once_per_run(tmp_path):
     assert _rows(store.path, "PRAGMA journal_mode") == [("wal",)]
     meta = dict(_rows(store.path, "SELECT name, value FROM meta"))
     assert meta["format"] == "diffbench-store" and meta["version"] == "2"
+
+
+def test_reading_the_store_pauses_the_garbage_collector_and_leaves_it_as_it_found_it(
+    tmp_path, monkeypatch
+):
+    """The records are decoded with Python's cyclic collector paused (its passes over the
+    growing heap were most of a store's opening time) and it is left as it was: running
+    again after, still off when the caller had turned it off."""
+    import gc
+
+    path = _filled(tmp_path, cells=3)
+    seen = []
+    decode = Schema.record
+
+    def record(schema, row):
+        seen.append(gc.isenabled())
+        return decode(schema, row)
+
+    monkeypatch.setattr(Schema, "record", record)
+    assert gc.isenabled()
+    assert len(Store(path.parent).cells.records) == 3
+    assert seen and not any(seen)  # every record decoded with the collector paused
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        assert len(Store(path.parent).cells.records) == 3
+        assert not gc.isenabled()
+    finally:
+        gc.enable()
 
 
 AWKWARD = [1e-300, 0.1 + 0.2, -0.0, 5e-324, 1.7976931348623157e308, math.inf, -math.inf, 1 / 3]
