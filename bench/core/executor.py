@@ -25,6 +25,7 @@ import signal
 import threading
 import time
 import warnings
+import weakref
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
@@ -243,16 +244,37 @@ class Terminated(BaseException):
 def terminate_on_sigterm():
     """Turn SIGTERM into a :class:`Terminated` exception in this process, so cleanup code runs;
     returns the handler it replaced (give it back to ``signal.signal`` when done). A process
-    forked from this one (a library's own pool, such as PyNumDiff's ``optimize``) inherits the
-    handler but is terminated as by default, without a traceback."""
+    forked from this one (a library's own pool, such as PyNumDiff's ``optimize``) gets the
+    default SIGTERM back as it starts (:func:`_default_sigterm_in_child`), so the kernel ends
+    it whatever its main thread is doing; a Python handler runs only when the main thread
+    returns to the interpreter, and a pool worker whose pool was terminating stayed blocked
+    once for 998 s."""
     owner = os.getpid()
 
     def handler(signum, frame):
-        if os.getpid() != owner:
+        if os.getpid() != owner:  # a child started otherwise than by fork
             os._exit(128 + signum)
         raise Terminated
 
+    _OUR_HANDLERS.add(handler)
     return signal.signal(signal.SIGTERM, handler)
+
+
+_OUR_HANDLERS: weakref.WeakSet = weakref.WeakSet()
+"""The SIGTERM handlers :func:`terminate_on_sigterm` installed."""
+
+
+def _default_sigterm_in_child() -> None:
+    """In a freshly forked child: SIGTERM back to the default (termination by the kernel) if
+    the handler inherited is ours; any other handler is the forking library's, kept."""
+    try:
+        if signal.getsignal(signal.SIGTERM) in _OUR_HANDLERS:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    except ValueError:  # not the main thread of the main interpreter: nothing to change
+        pass
+
+
+os.register_at_fork(after_in_child=_default_sigterm_in_child)
 
 
 def _watch_parent(parent: int) -> None:

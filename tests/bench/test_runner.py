@@ -5,6 +5,7 @@ import json
 import signal
 import sqlite3
 import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -465,3 +466,43 @@ def test_a_tuning_is_stored_as_soon_as_it_is_done_not_after_those_begun_before_i
     with contextlib.closing(sqlite3.connect(store.path)) as connection:
         stored = connection.execute('SELECT "order" FROM tunings ORDER BY id').fetchall()
     assert stored == [(1,), (2,)]
+
+
+FORKED_CHILD = """
+import os, signal, sys, time
+from diffbench.bench.core import executor
+
+previous = executor.terminate_on_sigterm()
+read, write = os.pipe()
+child = os.fork()
+if child == 0:
+    os.write(write, b"dfl" if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL else b"own")
+    sum(range(10**13))  # C code that never returns to the interpreter to run a handler
+    os._exit(0)
+print(os.read(read, 3).decode(), flush=True)
+os.kill(child, signal.SIGTERM)
+deadline = time.monotonic() + 10
+while time.monotonic() < deadline:
+    done, status = os.waitpid(child, os.WNOHANG)
+    if done:
+        break
+    time.sleep(0.05)
+else:
+    os.kill(child, signal.SIGKILL)
+    os.waitpid(child, 0)
+    print("survived SIGTERM", flush=True)
+    sys.exit(1)
+print("killed" if os.WIFSIGNALED(status) and os.WTERMSIG(status) == signal.SIGTERM else status)
+assert signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL  # the parent keeps its own
+"""
+
+
+def test_a_child_forked_by_a_library_is_ended_by_sigterm_even_inside_c_code():
+    """A process forked from diffbench's (PyNumDiff's pool workers) starts with the default
+    SIGTERM, not diffbench's Python handler, which would wait for its main thread to return to
+    the interpreter: a child busy in C code is ended at once, by the signal."""
+    found = subprocess.run(
+        [sys.executable, "-c", FORKED_CHILD], capture_output=True, text=True, timeout=60, env=ENV
+    )
+    assert found.returncode == 0, found.stdout + found.stderr
+    assert found.stdout.split() == ["dfl", "killed"]
