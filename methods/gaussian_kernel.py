@@ -47,6 +47,12 @@ def gaussian_kernel_taps(order: int, sigma_s: float, dt: float) -> np.ndarray:
     return 2 * shape / np.sum(u**2 * shape)
 
 
+def gaussian_weights(offset_s: np.ndarray, sigma_s: float) -> np.ndarray:
+    """The unnormalised Gaussian :math:`e^{-u^2/(2\\sigma^2)}` at offsets ``offset_s``: the
+    weights of the end fits and of the fits at irregular time stamps."""
+    return np.exp(-0.5 * (offset_s / sigma_s) ** 2)
+
+
 @functools.lru_cache(maxsize=256)
 def _cached_taps(order: int, sigma_s: float, dt: float) -> np.ndarray:
     # a tuning and every call at a setting read its taps again: computed once, read-only
@@ -57,8 +63,8 @@ def _cached_taps(order: int, sigma_s: float, dt: float) -> np.ndarray:
 
 @functools.lru_cache(maxsize=256)
 def _cached_weights(half_width: int, sigma_s: float, dt: float) -> np.ndarray:
-    # the Gaussian weights of the end fits (GaussianKernel._kernel on the grid), read-only
-    weights = np.exp(-0.5 * (np.arange(-half_width, half_width + 1) * dt / sigma_s) ** 2)
+    # the Gaussian weights of the end fits on the grid, read-only
+    weights = gaussian_weights(np.arange(-half_width, half_width + 1) * dt, sigma_s)
     weights.flags.writeable = False
     return weights
 
@@ -146,7 +152,7 @@ class GaussianKernel(FirMethod):
         return self._half_width(dt)
 
     def _kernel(self, offset_s: np.ndarray) -> np.ndarray:
-        return np.exp(-0.5 * (offset_s / self.sigma_s) ** 2)
+        return gaussian_weights(offset_s, self.sigma_s)
 
     def _estimate(self, x, dt, orders):
         central, _ = super()._estimate(x, dt, orders)

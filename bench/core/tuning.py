@@ -219,6 +219,11 @@ def check_cutoff(
         )
 
 
+def read_span(scored: np.ndarray) -> tuple[int, int]:
+    """The first and last sample a loss on the samples ``scored`` (a boolean mask) reads."""
+    return int(np.argmax(scored)), int(scored.size - 1 - np.argmax(scored[::-1]))
+
+
 def tune(
     name: str,
     realisations,
@@ -334,10 +339,7 @@ def tune(
     # the first and last sample each loss reads (the ends check is skipped when it cannot
     # reach them, and on every region but the interior, whose loss reads no valid marks:
     # the same losses, bit for bit, see Method.estimate_within)
-    reads = [
-        (int(np.argmax(inside)), int(inside.size - 1 - np.argmax(inside[::-1])))
-        for inside in scored
-    ]
+    reads = [read_span(inside) for inside in scored]
     reads_marks = region == "interior"  # the interior must be trusted; elsewhere, estimated
 
     def loss_on(k: int, params: dict[str, Any]) -> float:

@@ -272,7 +272,7 @@ def ends_check_share(name: str, record, settings, order: int = 1) -> float:
     read (the evaluation skips it)."""
     cls = methods.method_class(name)
     inside = np.asarray(record.interior, dtype=bool)
-    reads = (int(np.argmax(inside)), int(inside.size - 1 - np.argmax(inside[::-1])))
+    reads = tuning.read_span(inside)
     n, dt = inside.size, record.dt_s
     evaluations, checks = 0.0, 0.0
     for params in settings:
