@@ -30,6 +30,7 @@ from diffbench.bench.core.provenance import git_revision
 from diffbench.bench.core.records import SCHEMAS, utc_now
 from diffbench.bench.core.store import STORE_FILE, Store
 from diffbench.bench.report.tables import markdown_table, write_csv, write_text
+from diffbench.signals.scenarios import get_scenario
 
 STUDY = "make-studies"
 """The study name under which each step's attempts are stored (the store's ``studies``)."""
@@ -46,6 +47,19 @@ GP_COUNTERPART = "gaussian_process,pynumdiff.rbfdiff"
 """The Gaussian process and rbfdiff (1.3 s a call on 1000 samples: one tuning seed)."""
 RECORDS = ("paper-signal-4937ms", "paper-signal-999ms", "kink")
 """The paper-signal variants every tuning protocol also runs on."""
+
+TUNING_SAMPLES = 10_000
+"""About how many samples the loss of a several-seed tuning reads: ten seeds of the 1001
+samples of ``paper-signal``, two of the 4938 of ``paper-signal-4937ms``
+(:func:`tuning_seeds_for`): as many noise draws in every record's loss, the signal being the
+same. Ten seeds of the longer record (49,380 samples a loss) took 21 % of ``make studies``'
+wall time at 7a39896."""
+
+
+def tuning_seeds_for(task: str) -> int:
+    """The tuning seeds a several-seed tuning on the signal task ``task`` averages over: the
+    whole number nearest :data:`TUNING_SAMPLES` / its samples, at least one."""
+    return max(1, round(TUNING_SAMPLES / get_scenario(task).n_samples))
 
 
 @dataclass(frozen=True)
@@ -77,12 +91,13 @@ def _tunings(methods: str, task: str, seeds: int, *extra: str) -> tuple[str, ...
 
 
 def _paper_tunings(task: str, seeds: int) -> list[Step]:
-    """The tuning protocols every paper-signal record runs: ten tuning seeds on the interior,
-    the whole record (the choice combinations screened to two), PyNumDiff's counterparts."""
-    ten = ("--tuning-seeds", "10", "--budget", "400")
-    whole = (*ten, "--screen", "2", "--region", "whole")
+    """The tuning protocols every paper-signal record runs: several tuning seeds
+    (:func:`tuning_seeds_for`) on the interior, on the whole record (the choice combinations
+    screened to two), PyNumDiff's counterparts on the whole record."""
+    several = ("--tuning-seeds", str(tuning_seeds_for(task)), "--budget", "400")
+    whole = (*several, "--screen", "2", "--region", "whole")
     return [
-        Step(task, _tunings(f"native,{GRID_PEERS}", task, seeds, *ten)),
+        Step(task, _tunings(f"native,{GRID_PEERS}", task, seeds, *several)),
         Step(task, _tunings(f"native,{GRID_PEERS}", task, seeds, *whole)),
         Step(task, _tunings(COUNTERPARTS, task, seeds, *whole)),
     ]

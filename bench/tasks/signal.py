@@ -264,21 +264,49 @@ def _verdict(row) -> str:
     return f"{word} (p = {row['vs_next_t_p']:.2g})" if np.isfinite(row["vs_next_t_p"]) else word
 
 
+SEVERAL = "K"
+"""Marks the variants of :data:`TUNING_VARIANTS` whose loss averages several tuning seeds: one
+column per count stored (:func:`tuning_variants`; ten seeds of the paper's 1001 samples, two of
+its 4938-sample record)."""
+
 # The tunings a tuning table compares: (column, criterion, seeds the loss averages, region it
 # is taken on).
 TUNING_VARIANTS = (
     ("oracle", "oracle", 1, "interior"),
-    ("oracle 10 seeds", "oracle", 10, "interior"),
-    ("oracle 10 seeds whole", "oracle", 10, "whole"),
+    ("oracle K seeds", "oracle", SEVERAL, "interior"),
+    ("oracle K seeds whole", "oracle", SEVERAL, "whole"),
     ("oracle whole", "oracle", 1, "whole"),
     ("no-truth", "no-truth", 1, "interior"),
     ("pynumdiff", "pynumdiff", 1, "interior"),
 )
 
 
+def several_seed_counts(tunings: pd.DataFrame) -> list[int]:
+    """The tuning seed counts above one among ``tunings`` (oracle criterion), ascending."""
+    if not len(tunings):
+        return []
+    oracle = tunings[tunings["criterion"] == "oracle"]
+    return sorted({int(k) for k in oracle["tuning_seeds"] if int(k) > 1})
+
+
+def tuning_variants(tunings: pd.DataFrame) -> list[tuple[str, str, int, str]]:
+    """:data:`TUNING_VARIANTS` with each several-seed variant once per count
+    :func:`several_seed_counts` finds (``oracle 10 seeds``, ``oracle 2 seeds whole``...), none
+    where no tuning averaged several seeds."""
+    counts = several_seed_counts(tunings)
+    variants = []
+    for column, criterion, seeds, region in TUNING_VARIANTS:
+        if seeds != SEVERAL:
+            variants.append((column, criterion, seeds, region))
+            continue
+        for count in counts:
+            variants.append((column.replace("K seeds", f"{count} seeds"), criterion, count, region))
+    return variants
+
+
 def tuning_table(cells: pd.DataFrame, tunings: pd.DataFrame) -> pd.DataFrame:
     """Per method, derivative n and scoring region (interior, whole record), the mean RMSE on
-    the scoring seeds of the preset and of each tuned setting of :data:`TUNING_VARIANTS`, the
+    the scoring seeds of the preset and of each tuned setting of :func:`tuning_variants`, the
     seconds each tuning took, the no-truth / oracle ratio, and (whole record) the least
     coverage of the record among these settings."""
     chosen = cells[cells["metric"].isin(["rmse", "coverage"])]
@@ -297,6 +325,7 @@ def tuning_table(cells: pd.DataFrame, tunings: pd.DataFrame) -> pd.DataFrame:
     means = chosen.groupby(group_keys, dropna=False)["value"].mean()
     least = chosen.groupby(group_keys, dropna=False)["value"].min()
     records = []
+    variants = tuning_variants(tunings)
     for (method, order), group in tunings.groupby(["method", "order"], sort=True):
         order = int(order)
         for region in ("interior", "whole"):
@@ -314,7 +343,7 @@ def tuning_table(cells: pd.DataFrame, tunings: pd.DataFrame) -> pd.DataFrame:
             rmse = presets[presets["metric"] == "rmse"]["value"]
             record["preset"] = rmse.mean() if len(rmse) else float("nan")
             coverages = list(presets[presets["metric"] == "coverage"]["value"])
-            for column, criterion, seeds, tuned_region in TUNING_VARIANTS:
+            for column, criterion, seeds, tuned_region in variants:
                 hit = _variant(group, criterion, seeds, tuned_region)
                 # the tunings on this task (a setting tuned on another has its own rows)
                 key = (method, "tuned", criterion, order, seeds, tuned_region, "", order, region)
@@ -353,8 +382,12 @@ def tuning_report(cells: pd.DataFrame, tunings: pd.DataFrame, directory: Path) -
         "Tuning: RMSE on the scoring seeds, on the interior and on the whole record, of the "
         "preset and of each tuned setting",
         "Each tuned setting is tuned for the derivative n on its tuning seeds (never scored): "
-        "**oracle**, **no-truth**, **pynumdiff**: one seed, loss on the interior; **oracle 10 "
-        "seeds**: the loss averaged over ten seeds; **whole**: the loss taken on every sample. "
+        "**oracle**, **no-truth**, **pynumdiff**: one seed, loss on the interior; "
+        + "".join(
+            f"**oracle {k} seeds**: the loss averaged over {k} seeds; "
+            for k in several_seed_counts(tunings)
+        )
+        + "**whole**: the loss taken on every sample. "
         "no-truth / oracle near 1 means the data-only criterion finds what the truth would; "
         "tuning.csv also gives the seconds each tuning took. **whole record**: RMSE over every "
         "sample each setting estimates; **least coverage**: the smallest fraction of the record "
@@ -364,7 +397,7 @@ def tuning_report(cells: pd.DataFrame, tunings: pd.DataFrame, directory: Path) -
 
 
 def _variant(tunings: pd.DataFrame, criterion: str, seeds: int, region: str) -> pd.DataFrame:
-    """The tunings of one variant of :data:`TUNING_VARIANTS`."""
+    """The tunings of one variant of :func:`tuning_variants`."""
     return tunings[
         (tunings["criterion"] == criterion)
         & (tunings["tuning_seeds"] == seeds)
@@ -378,7 +411,7 @@ def screening_note(tunings: pd.DataFrame) -> str:
     if "screen" not in tunings:
         return ""
     columns = []
-    for column, criterion, seeds, region in TUNING_VARIANTS:
+    for column, criterion, seeds, region in tuning_variants(tunings):
         hit = _variant(tunings, criterion, seeds, region)["screen"].dropna()
         columns += [f"**{column}** to the best {int(k)}" for k in sorted(hit.unique())]
     if not columns:

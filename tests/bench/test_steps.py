@@ -47,6 +47,21 @@ def test_each_tasks_report_is_written_once_by_its_last_step():
     assert quiet == 20  # the paper-signal records' 24 steps, less the last of each of the 4
 
 
+def test_several_seed_tunings_read_about_the_same_samples_on_every_record():
+    """Ten tuning seeds of the 1001-sample records, two of the 4938-sample one (10,000 samples
+    a loss); each record's several-seed steps ask for its own count."""
+    assert [studies.tuning_seeds_for(task) for task in ("paper-signal", *studies.RECORDS)] == [
+        10,
+        2,
+        10,
+        10,
+    ]
+    for step in studies.studies_steps(seeds=20, jobs=2):
+        if "--tuning-seeds" in step.argv:
+            count = step.argv[step.argv.index("--tuning-seeds") + 1]
+            assert int(count) == studies.tuning_seeds_for(step.argv[2]), step.command
+
+
 def test_attempts_are_stored_with_the_records_they_added(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # a relative output folder, as make studies gives
     steps = [

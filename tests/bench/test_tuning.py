@@ -495,6 +495,49 @@ def test_tuning_table_keeps_each_tuning_apart_on_the_interior_and_the_whole_reco
     )
 
 
+def test_the_tuning_table_names_its_several_seed_columns_by_the_count_stored():
+    """Two tuning seeds (the longer record) make columns ``oracle 2 seeds``: none of ten."""
+    import pandas as pd
+
+    from diffbench.bench.tasks.signal import tuning_table, tuning_variants
+
+    tunings = pd.DataFrame(
+        [
+            {"method": "m", "order": 1, "criterion": "oracle", "tuning_seeds": s, "region": r}
+            | {"seconds": 1.0}
+            for s, r in ((1, "interior"), (2, "interior"), (2, "whole"))
+        ]
+    )
+    columns = [variant[0] for variant in tuning_variants(tunings)]
+    assert columns[:4] == ["oracle", "oracle 2 seeds", "oracle 2 seeds whole", "oracle whole"]
+    assert not any("10 seeds" in c for c in columns)
+    assert [v[2] for v in tuning_variants(tunings) if "seeds" in v[0]] == [2, 2]
+    assert [v[0] for v in tuning_variants(tunings.iloc[:1])][:2] == ["oracle", "oracle whole"]
+    cells = pd.DataFrame(
+        [
+            {
+                "method": "m",
+                "origin": "tuned",
+                "criterion": "oracle",
+                "tuned_order": 1,
+                "tuning_seeds": 2,
+                "tuned_region": "interior",
+                "tuned_on": "",
+                "order": 1,
+                "region": region,
+                "metric": "rmse",
+                "seed": seed,
+                "value": value + seed,
+            }
+            for region, value in (("interior", 3.0), ("whole", 5.0))
+            for seed in (0, 1)
+        ]
+    )
+    table = tuning_table(cells, tunings).set_index("scored on")
+    assert table.loc["interior", "oracle 2 seeds"] == 3.5
+    assert table.loc["whole record", "oracle 2 seeds"] == 5.5
+
+
 def test_the_tuning_table_says_which_columns_were_screened():
     """The note under the tuning table names the columns whose tunings screened the choice
     combinations, and to how many, from the stored tunings; nothing when none did."""
