@@ -236,12 +236,14 @@ def _expand(name: str) -> list[str]:
 
 
 def method_names(names: str | Iterable[str] | None) -> list[str] | None:
-    """The registered names of ``names``, each a method or a group (:data:`GROUPS`).
+    """The registered names of ``names``, each a method or a group (:data:`GROUPS`), less
+    those named with a leading ``-`` (``peers,-derivative.kernel``: every peer but one).
 
     Parameters
     ----------
     names : str or iterable of str or None
-        Method names or groups (all, native, peers, causal); a text is comma-separated.
+        Method names or groups (all, native, peers, causal); a text is comma-separated. A name
+        or group after ``-`` is left out of the others.
 
     Returns
     -------
@@ -251,9 +253,21 @@ def method_names(names: str | Iterable[str] | None) -> list[str] | None:
     if names is None:
         return None
     names = check("methods", name_list, names)
+    kept = [name for name in names if not name.startswith("-")]
+    if not kept:
+        raise BadInput(
+            f"--methods: {','.join(names)} only leaves methods out (a leading -); name the "
+            "methods or a group to leave them out of, e.g. peers,-derivative.kernel"
+        )
     with checked("--methods: "):
-        expanded = runner.unique(n for name in names for n in _expand(name))
-        return [methods.method_class(name).name for name in expanded]
+        expanded = runner.unique(n for name in kept for n in _expand(name))
+        left_out = {n for name in names if name.startswith("-") for n in _expand(name[1:])}
+        left_out = {methods.method_class(name).name for name in left_out}
+        found = [methods.method_class(name).name for name in expanded]
+        found = [name for name in found if name not in left_out]
+    if not found:
+        raise BadInput(f"--methods: {','.join(names)} leaves no method")
+    return found
 
 
 def load_plugins(modules: Iterable[str] = ()) -> None:

@@ -25,7 +25,10 @@ from diffbench.bench.arguments import for_argparse as typed
 from diffbench.bench.arguments import timeout as timeout_s
 from diffbench.bench.core import tuning
 
-GROUPS_HELP = "method names or groups (all, native, peers, causal"
+GROUPS_HELP = (
+    "method names or groups (all, native, peers, causal; a leading - leaves one out: "
+    "peers,-derivative.kernel"
+)
 TIMEOUT_HELP = (
     "most seconds one cell's computation may take; a cell past it is recorded as failed, the run "
     f"goes on, the next run tries it again (default {runner.DEFAULT_TIMEOUT_S:g}: the slowest "

@@ -91,12 +91,13 @@ DERIVATIVE_README: dict[str, dict[str, Any]] = {
     "finite_difference": {"k": 1},
     "savitzky_golay": {"left": 0.5, "right": 0.5, "order": 3},
     "spectral": {},
-    "spline": {"s": 1e-2},
 }
 """derivative's methods at the settings its README shows them with (derivative 0.6), given to
 SINDy through pysindy's ``SINDyDerivative``. Left out for their cost on these records (a
-state of Lorenz, 5001 samples, one call): ``trend_filtered`` (45 s), ``kalman`` (17 s) and
-``kernel`` (dense in the record's length)."""
+state of Lorenz, 5001 samples, one call): ``trend_filtered`` (45 s), ``kalman`` (17 s),
+``spline`` at its README's ``s = 1e-2`` (4 s: FITPACK's smoothing spline all but
+interpolating the noise, half of this study's time at 14de891) and ``kernel`` (dense in the
+record's length)."""
 
 PRESET = "paper-signal"
 """The preset of the ``preset`` entries: the paper signal's (at 1 ms), which every offline

@@ -172,6 +172,14 @@ def test_method_groups_and_listings():
     assert "jacobi" in native and not any("." in name for name in native)
     assert api.method_names(["jacobi", "native"])[0] == "jacobi"
     assert len(api.method_names("jacobi,jacobi")) == 1
+    # a leading - leaves a method or a group out of the others, wherever it is written
+    assert api.method_names("native,-jacobi") == [n for n in native if n != "jacobi"]
+    assert api.method_names(["-jacobi", "native"]) == api.method_names("native,-jacobi")
+    everything = api.method_names("all")
+    assert api.method_names("all,-native") == [n for n in everything if n not in native]
+    for only_out, said in (("-jacobi", "only leaves methods out"), ("native,-native", "no method")):
+        with pytest.raises(ValueError, match=f"--methods: .*{said}"):
+            api.method_names(only_out)
     assert any(line.startswith("  jacobi  (") for line in api.list_methods())
     assert any(line.startswith(f"  {TASK} [signal]") for line in api.list_tasks())
 

@@ -106,6 +106,11 @@ def _cli(*args: str, cwd=None) -> subprocess.CompletedProcess:
             "did you mean 'jacobi' or 'causal_jacobi'?",
         ),
         (
+            ["run", "paper-signal", "--methods", "native,-jacobbi"],
+            "diffbench: error: --methods: unknown method 'jacobbi'; "
+            "did you mean 'jacobi' or 'causal_jacobi'?",
+        ),
+        (
             ["run", "paper-signl"],
             "diffbench: error: unknown task 'paper-signl'; did you mean 'paper-signal', "
             "'paper-signal-clean' or 'paper-signal-999ms'?",

@@ -22,8 +22,9 @@ def test_every_step_is_a_command_line_diffbench_parses(tmp_path):
         argv = studies._resolved(step, tmp_path)[3:]
         assert "{out}" not in " ".join(argv)
         parser.parse_args(argv)  # argparse exits (SystemExit 2) on a bad command line
-    # the steps the Makefile ran before it called diffbench studies, each once
-    assert len({step.command for step in every}) == len(every) == 37
+    # each step once: paper-signal's 7 (the GP's tuned on paper-signal-999ms), 6 for each of
+    # two variants, 3 for paper-signal-999ms (no several-seed protocols), 12 others
+    assert len({step.command for step in every}) == len(every) == 34
     assert {step.study for step in every} >= {"grid", "limit", "sindy", "identify-dfki"}
 
 
@@ -44,7 +45,24 @@ def test_each_tasks_report_is_written_once_by_its_last_step():
     last = {name: index for index, name in enumerate(tasks) if name is not None}
     assert every[last["paper-signal"]].argv[:2] == ("tune", "gaussian_process,pynumdiff.rbfdiff")
     quiet = sum("--no-report" in step.argv for step in every)
-    assert quiet == 20  # the paper-signal records' 24 steps, less the last of each of the 4
+    assert quiet == 17  # the paper-signal records' 21 steps, less the last of each of the 4
+
+
+def test_the_gaussian_process_is_tuned_once_for_the_three_paper_signal_records():
+    """One tuning of the Gaussian process and rbfdiff, on paper-signal-999ms (its samples the
+    first 1000 of paper-signal's, the same draws), scored on all three records; the dense
+    peers are left out of the peers' oracle tuning by name."""
+    every = studies.studies_steps(seeds=20, jobs=2)
+    gp = [s for s in every if s.argv[1] == studies.GP_COUNTERPART]
+    own = [s for s in gp if "--tuned-on" not in s.argv]
+    assert [s.argv[2] for s in own] == [studies.GP_TUNED_ON]
+    shared = {s.argv[2]: s.argv[s.argv.index("--tuned-on") + 1] for s in gp if s not in own}
+    assert shared == dict.fromkeys(("paper-signal", "paper-signal-4937ms"), studies.GP_TUNED_ON)
+    assert every.index(own[0]) < min(every.index(s) for s in gp if s not in own)
+    (peers,) = [s for s in every if s.argv[:2] == ("tune", "peers,-derivative.kernel")]
+    assert "derivative.kernel" in studies.UNTUNED_PEERS and peers.argv[2] == "paper-signal"
+    for record in studies.ONE_SAMPLE_SHORTER:
+        assert not any("--tuning-seeds" in s.argv and s.argv[2] == record for s in every)
 
 
 def test_several_seed_tunings_read_about_the_same_samples_on_every_record():
