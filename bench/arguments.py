@@ -259,11 +259,14 @@ def method_names(names: str | Iterable[str] | None) -> list[str] | None:
             f"--methods: {','.join(names)} only leaves methods out (a leading -); name the "
             "methods or a group to leave them out of, e.g. peers,-derivative.kernel"
         )
+
+    def registered(given: list[str]) -> list[str]:
+        expanded = runner.unique(n for name in given for n in _expand(name))
+        return [methods.method_class(name).name for name in expanded]
+
     with checked("--methods: "):
-        expanded = runner.unique(n for name in kept for n in _expand(name))
-        left_out = {n for name in names if name.startswith("-") for n in _expand(name[1:])}
-        left_out = {methods.method_class(name).name for name in left_out}
-        found = [methods.method_class(name).name for name in expanded]
+        found = registered(kept)
+        left_out = set(registered([name[1:] for name in names if name.startswith("-")]))
         found = [name for name in found if name not in left_out]
     if not found:
         raise BadInput(f"--methods: {','.join(names)} leaves no method")
