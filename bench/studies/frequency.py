@@ -3,13 +3,15 @@ frequency and white-noise gain, and the split of the error into bias and noise p
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 from scipy import optimize
 
-from diffbench.bench.core.scores import estimate_on
-from diffbench.methods import Method
+from diffbench.bench.core.scores import estimate_on, is_uniform
+from diffbench.methods import Estimate, Method
 
 
 def ideal_response(frequency_hz, order: int) -> np.ndarray:
@@ -68,14 +70,23 @@ class ErrorParts:
     noise: float
 
 
-def decompose_error(method: Method, realisation, order: int) -> ErrorParts:
+def decompose_error(
+    method: Method, realisation, order: int, estimate: Estimate | None = None
+) -> ErrorParts:
     """Split the error of a linear method on a realisation into bias and noise parts, scored
-    on the realisation's interior (where the method is valid)."""
+    on the realisation's interior (where the method is valid).
+
+    ``estimate``: the method's estimate of the realisation's samples when the caller has it
+    (orders including ``order``; the valid marks of an order do not depend on the other orders
+    asked), so that it is not computed again. The estimate of the clean signal is the same for
+    every noise seed of a scenario whose clean signal and time stamps do not change with the
+    seed: it is kept for the last :data:`KEPT_CLEAN_ESTIMATES` (method, order, record)
+    (:func:`_clean_estimate`), so a scenario's seeds compute it once, not once each."""
     if not method.linear:
         raise ValueError(f"`method` {method.name!r} is not linear: its error does not split")
 
-    noisy = estimate_on(method, realisation, orders=(order,))
-    clean = estimate_on(method, realisation, realisation.truth[0], orders=(order,))
+    noisy = estimate_on(method, realisation, orders=(order,)) if estimate is None else estimate
+    clean = _clean_estimate(method, realisation, order)
     noise_only = estimate_on(method, realisation, realisation.noise, orders=(order,))
     mask = realisation.interior & noisy.valid[order]
     truth = realisation.truth[order]
@@ -85,6 +96,36 @@ def decompose_error(method: Method, realisation, order: int) -> ErrorParts:
 
     return ErrorParts(
         total=rms(noisy[order] - truth),
-        bias=rms(clean[order] - truth),
+        bias=rms(clean - truth),
         noise=rms(noise_only[order]),
     )
+
+
+KEPT_CLEAN_ESTIMATES = 16
+"""How many clean-signal estimates :func:`_clean_estimate` keeps (one order of one record
+each): the cells of one setting over a scenario's seeds follow one another on a worker."""
+
+
+def _clean_estimate(method: Method, realisation, order: int) -> np.ndarray:
+    """``method``'s estimate of order ``order`` of ``realisation``'s clean signal (values,
+    read-only), computed once for each (method, order, step, time stamps, clean samples):
+    the same values as computed afresh, the method being a pure function of them."""
+    uniform = is_uniform(realisation)
+    return _kept_clean_estimate(
+        method,
+        order,
+        float(realisation.dt_s),
+        None if uniform else np.asarray(realisation.t, dtype=np.float64).tobytes(),
+        np.asarray(realisation.truth[0], dtype=np.float64).tobytes(),
+    )
+
+
+@functools.lru_cache(maxsize=KEPT_CLEAN_ESTIMATES)
+def _kept_clean_estimate(method, order, dt_s, times_bytes, clean_bytes) -> np.ndarray:
+    clean = np.frombuffer(clean_bytes, dtype=np.float64)
+    record = SimpleNamespace(x=clean, dt_s=dt_s, uniform=times_bytes is None)
+    if times_bytes is not None:
+        record.t = np.frombuffer(times_bytes, dtype=np.float64)
+    values = np.array(estimate_on(method, record, orders=(order,))[order])
+    values.setflags(write=False)
+    return values

@@ -39,7 +39,7 @@ class SignalTask(ScenarioTask):
         rows = score_estimate(estimate, realisation.truth, realisation.interior)
         if method.linear:
             for order in (1, 2):
-                parts = decompose_error(method, realisation, order)
+                parts = decompose_error(method, realisation, order, estimate)
                 rows += [
                     {"order": order, "region": "interior", "metric": metric, "value": value}
                     for metric, value in (("bias_rmse", parts.bias), ("noise_rmse", parts.noise))

@@ -4,6 +4,7 @@ the method they recommend scored against the real truth."""
 import dataclasses
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from diffbench import methods, signals
@@ -472,3 +473,33 @@ def test_the_continuum_ends_where_the_band_does_not_where_its_leakage_does():
     reach = TIME_BANDWIDTH / (x.size * dt)
     top = model.fine_hz[model.amplitude > 0].max()
     assert 20.0 - reach <= top <= 20.0 + reach + spectrum.frequency_hz[1]
+
+
+def test_one_record_s_surrogates_are_drawn_once_for_the_methods_asked_in_turn(paper, monkeypatch):
+    """Two methods recommended in turn on one record share its surrogate model (fitted once),
+    and each gets the row it gets with the model fitted afresh; another seed or other scored
+    samples fit their own."""
+    from diffbench.bench.studies import recommend as module
+
+    fitted = []
+
+    def counting_model(*args, **kwargs):
+        fitted.append(1)
+        return surrogate_model(*args, **kwargs)
+
+    monkeypatch.setattr(module, "surrogate_model", counting_model)
+    module._kept_surrogate_sets.cache_clear()
+    x = paper.x[:1500]
+    shared = {name: recommend(x, paper.dt_s, [name], (1,)) for name in ("savitzky_golay", "jacobi")}
+    assert len(fitted) == 1
+    for name, found in shared.items():
+        module._kept_surrogate_sets.cache_clear()
+        fresh = recommend(x, paper.dt_s, [name], (1,))
+        columns = ["method", "params", "predicted_rmse", "low", "high", "coverage"]
+        pd.testing.assert_frame_equal(found.table[columns], fresh.table[columns])
+    fitted.clear()
+    recommend(x, paper.dt_s, ["savitzky_golay"], (1,), seed=1)
+    scored = np.zeros(x.size, dtype=bool)
+    scored[200:1300] = True
+    recommend(x, paper.dt_s, ["savitzky_golay"], (1,), scored=scored)
+    assert len(fitted) == 2
