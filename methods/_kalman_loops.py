@@ -199,6 +199,52 @@ def covariance_steps(
     return gains.shape[0], False
 
 
+@numba.njit(cache=True)
+def varying_covariance_steps(
+    Fs, Qs, R, predicted, gains, covariances, predictions
+):  # pragma: no cover
+    r"""The covariance recursion of :func:`covariance_steps` with each step's own transition
+    and process noise (irregular time stamps: ``Fs``, ``Qs`` of shape (n, m, m)), over all n
+    steps (no steady state to stop at): from ``predicted`` (step 0's predicted covariance
+    :math:`F_0 P_{-1} F_0^\top + Q_0`), step k's gain and filtered covariance into
+    ``gains[k]`` and ``covariances[k]``, and the next step's predicted covariance
+    :math:`F_{k+1} P_k F_{k+1}^\top + Q_{k+1}` into ``predictions[k]`` (k < n - 1; the
+    smoother's :math:`C_k = P_k F_{k+1}^\top (P^-_{k+1})^{-1}`). filterpy's ``batch_filter``
+    with ``Fs``, ``Qs`` runs the same equations (predict with step k's model, then update)."""
+    n, m = Fs.shape[0], Fs.shape[1]
+    update = np.empty((m, m))
+    product = np.empty((m, m))
+    for step in range(n):
+        gain = gains[step]
+        covariance = covariances[step]
+        denominator = predicted[0, 0] + R
+        for i in range(m):
+            gain[i] = predicted[i, 0] / denominator
+        for i in range(m):
+            for j in range(m):
+                update[i, j] = predicted[i, j] - gain[i] * predicted[0, j]
+        for i in range(m):
+            for j in range(m):
+                covariance[i, j] = (update[i, j] - update[i, 0] * gain[j]) + R * (gain[i] * gain[j])
+        if step == n - 1:
+            break
+        F, Q = Fs[step + 1], Qs[step + 1]
+        for i in range(m):  # F P
+            for j in range(m):
+                total = 0.0
+                for k in range(m):
+                    total += F[i, k] * covariance[k, j]
+                product[i, j] = total
+        for i in range(m):  # (F P) Fᵀ + Q
+            for j in range(m):
+                total = 0.0
+                for k in range(m):
+                    total += product[i, k] * F[j, k]
+                predicted[i, j] = total + Q[i, j]
+                predictions[step, i, j] = predicted[i, j]
+    return gains
+
+
 def padded(array: np.ndarray, axes: int, size: int) -> np.ndarray:
     """``array`` with its last ``axes`` axes (each of the model's states) padded with zeros
     to ``size``, C-contiguous."""

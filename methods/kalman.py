@@ -357,26 +357,62 @@ def irregular_models(
     ``times``, in the states scaled by the mean step h (:math:`s_j = x^{(j)} h^j / j!`): for
     the step :math:`\Delta_k = t_k - t_{k-1}` (:math:`\Delta_0 = h`, from the prior),
     :math:`F_k = T F(\Delta_k) T^{-1}` and :math:`Q_k = T Q(\Delta_k) T`, T = diag(h^j/j!),
-    with Q from :func:`integrated_white_noise` at the spectral density of the uniform model
-    of step h. Returns (Fs, Qs, to_derivatives)."""
+    with F's entries :math:`\Delta_k^{j-i}/(j-i)!` and Q :func:`integrated_white_noise`'s
+    at the spectral density of the uniform model of step h, for every step at once. Returns
+    (Fs, Qs, to_derivatives)."""
     states = model_order + 1
     step = mean_step(times)
     density = (2 * math.pi * bandwidth_hz) ** (2 * states) * step
     to_derivatives = np.array([math.factorial(j) / step**j for j in range(states)])
-    gaps = np.r_[step, np.diff(times)]
-    Fs = np.empty((times.size, states, states))
-    Qs = np.empty_like(Fs)
-    for k, gap in enumerate(gaps):
-        raw = np.array(
-            [
-                [gap ** (j - i) / math.factorial(j - i) if j >= i else 0.0 for j in range(states)]
-                for i in range(states)
-            ]
-        )
-        Fs[k] = raw * to_derivatives[None, :] / to_derivatives[:, None]
-        noise = integrated_white_noise(states, gap, density)
-        Qs[k] = noise / np.outer(to_derivatives, to_derivatives)
+    gaps = np.r_[step, np.diff(times)][:, None, None]
+    index = np.arange(states)
+    ahead = index[None, :] - index[:, None]  # j - i
+    factorials = np.array([float(math.factorial(k)) for k in range(2 * states)])
+    raw = np.where(ahead >= 0, gaps ** np.maximum(ahead, 0) / factorials[np.abs(ahead)], 0.0)
+    Fs = raw * to_derivatives[None, None, :] / to_derivatives[None, :, None]
+    power = 2 * states - 1 - index[:, None] - index[None, :]
+    below = factorials[states - 1 - index]
+    noise = density * (gaps**power / (np.outer(below, below) * power))
+    Qs = noise / np.outer(to_derivatives, to_derivatives)
     return Fs, Qs, to_derivatives
+
+
+def irregular_smooth(
+    z: np.ndarray, Fs: np.ndarray, Qs: np.ndarray, R: float, mean0, covariance0
+) -> np.ndarray:
+    r"""Kalman filter + Rauch-Tung-Striebel smoother with each step's own model (``Fs``,
+    ``Qs``: (n, m, m), :func:`irregular_models`), equal to filterpy's ``batch_filter`` +
+    ``rts_smoother`` given ``Fs=Fs, Qs=Qs`` (predict with step k's model, then update; the
+    smoother's :math:`C_k = P_k F_{k+1}^\top (F_{k+1} P_k F_{k+1}^\top + Q_{k+1})^{-1}`,
+    :math:`\tilde s_k = C_k \tilde s_{k+1} + (I - C_k F_{k+1}) \hat s_k`), for every channel
+    at once. The covariances do not depend on the data: their recursion runs once, compiled
+    (:func:`diffbench.methods._kalman_loops.varying_covariance_steps`), and the states' with
+    each step's tables (:func:`diffbench.methods._kalman_loops.smooth`). ``z``: (n, channels);
+    returns the smoothed states (n, m, channels)."""
+    from diffbench.methods import _kalman_loops as loops
+
+    n, m = Fs.shape[0], Fs.shape[1]
+    predicted = Fs[0] @ covariance0 @ Fs[0].T + Qs[0]
+    gains = np.empty((n, m))
+    covariances = np.empty((n, m, m))
+    predictions = np.empty((n, m, m))
+    predictions[-1] = np.eye(m)  # no step after the last: its smoother gain is never used
+    loops.varying_covariance_steps(Fs, Qs, float(R), predicted, gains, covariances, predictions)
+    smoothers = np.zeros((n, m, m))
+    smoothers[:-1] = covariances[:-1] @ np.swapaxes(Fs[1:], 1, 2) @ np.linalg.inv(predictions[:-1])
+    mixes = np.broadcast_to(np.eye(m), (n, m, m)).copy()
+    mixes[:-1] -= smoothers[:-1] @ Fs[1:]
+    transitions = Fs - gains[:, :, None] * Fs[:, 0][:, None, :]
+    width = loops.width(m)
+    tables = (
+        loops.padded(transitions, 2, width),
+        loops.padded(gains, 1, width),
+        loops.padded(smoothers, 2, width),
+        loops.padded(mixes, 2, width),
+    )
+    start = loops.padded(np.asarray(mean0, dtype=float).T, 1, width)
+    states = loops.smooth(np.asarray(z, dtype=float).T, start, *tables)  # (channels, n, width)
+    return states[:, :, :m].transpose(1, 2, 0)
 
 
 @functools.lru_cache(maxsize=64)
@@ -402,8 +438,9 @@ class KalmanSmoother(Method):
     ``model_order`` (the model's own signals).
 
     Time stamps (``t=``) are native: the same model with each step's own transition and
-    process noise (:func:`irregular_models`), run by filterpy's ``batch_filter`` +
-    ``rts_smoother`` themselves (per channel), q set by the mean step; the ends are trusted
+    process noise (:func:`irregular_models`), filtered and smoothed by
+    :func:`irregular_smooth` (filterpy's ``batch_filter`` + ``rts_smoother`` with per-step
+    models, its tests' oracle), q set by the mean step; the ends are trusted
     over the same spans of time as on the uniform record of the mean step.
 
     Parameters
@@ -507,8 +544,6 @@ class KalmanSmoother(Method):
         return values, {order: valid.copy() for order in orders}
 
     def _estimate_at(self, x, times, orders):
-        from filterpy.kalman import KalmanFilter
-
         from diffbench.methods._ends import trusted_times
 
         n = times.size
@@ -525,15 +560,7 @@ class KalmanSmoother(Method):
         # states scaled by the mean step h (s_j = x^(j) h^j / j!): the polynomial's coefficients
         steps = (times - times[0]) / step + 1.0
         mean0, covariance0 = initial_state(flat, np.ones(states), steps)
-        smoothed = np.empty((n, states, flat.shape[1]))
-        for channel in range(flat.shape[1]):
-            kf = KalmanFilter(dim_x=states, dim_z=1)
-            kf.x = mean0[:, channel].copy()
-            kf.P = covariance0.copy()
-            kf.H = np.eye(1, states)
-            kf.R = np.eye(1)
-            means, covariances, _, _ = kf.batch_filter(flat[:, channel], Fs=Fs, Qs=Qs)
-            smoothed[:, :, channel] = kf.rts_smoother(means, covariances, Fs=Fs, Qs=Qs)[0]
+        smoothed = irregular_smooth(flat, Fs, Qs, 1.0, mean0, covariance0)
         values = {
             order: (smoothed[:, order, :] * to_derivatives[order]).reshape(x.shape)
             for order in orders
