@@ -120,3 +120,63 @@ def test_pynumdiff_rtsdiff_one_call_1000(benchmark):
         pynumdiff.rtsdiff, x, DT, order=3, log_qr_ratio=8.0, forwardbackward=False
     )
     assert derivative.shape == x.shape and np.isfinite(derivative).all()
+
+
+def _jittered(size):
+    """``size`` time stamps of mean step DT jittered by ±30 % (seeded) and the noisy sine at
+    them: the grid's jittered records, the real robot's logger."""
+    rng = np.random.default_rng(size)
+    t = np.cumsum(DT * (1 + 0.3 * rng.uniform(-1, 1, size)))
+    return t, np.sin(2 * np.pi * 4 * t) + 0.05 * rng.standard_normal(size)
+
+
+def _per_step_start(kalman, x, t):
+    from diffbench.methods.kalman import irregular_models
+
+    Fs, Qs, _ = irregular_models(kalman.model_order, t, kalman.bandwidth_hz)
+    steps = (t - t[0]) / ((t[-1] - t[0]) / (t.size - 1)) + 1.0
+    mean0, covariance0 = initial_state(x[:, None], np.ones(kalman.model_order + 1), steps)
+    return Fs, Qs, mean0, covariance0
+
+
+@pytest.mark.benchmark(group="kalman-time-stamps-1e4")
+def test_kalman_method_at_time_stamps_1e4(benchmark, kalman):
+    """The method at 1e4 jittered stamps (its per-step models, prior, compiled recursion and
+    smoother, ends check), beside filterpy's per-step ``batch_filter`` + ``rts_smoother`` on
+    the same models; checked against it after timing."""
+    from diffbench.methods.kalman import irregular_smooth
+
+    t, x = _jittered(10_000)
+    kalman(x, t=t)  # compiled, imported
+    estimate = benchmark(kalman, x, t=t)
+    benchmark.extra_info["samples"] = x.size
+    Fs, Qs, mean0, covariance0 = _per_step_start(kalman, x, t)
+    fast = irregular_smooth(x[:, None], Fs, Qs, 1.0, mean0, covariance0)
+    np.testing.assert_array_equal(estimate[0], fast[:, 0, 0])
+
+
+@pytest.mark.benchmark(group="kalman-time-stamps-1e4")
+def test_filterpy_per_step_models_1e4(benchmark, kalman):
+    from filterpy.kalman import KalmanFilter
+
+    from diffbench.methods.kalman import irregular_smooth
+
+    t, x = _jittered(10_000)
+    Fs, Qs, mean0, covariance0 = _per_step_start(kalman, x, t)
+
+    def filterpy_per_step():
+        kf = KalmanFilter(dim_x=Fs.shape[1], dim_z=1)
+        kf.x, kf.P = mean0[:, 0].copy(), covariance0.copy()
+        kf.H, kf.R = np.eye(1, Fs.shape[1]), np.eye(1)
+        means, covariances, _, _ = kf.batch_filter(x, Fs=Fs, Qs=Qs)
+        return kf.rts_smoother(means, covariances, Fs=Fs, Qs=Qs)[0]
+
+    smoothed = benchmark.pedantic(filterpy_per_step, rounds=2, iterations=1, warmup_rounds=0)
+    benchmark.extra_info["samples"] = x.size
+    fast = irregular_smooth(x[:, None], Fs, Qs, 1.0, mean0, covariance0)[:, :, 0]
+    # the rounding bound of tests/methods/test_kalman.py's per-step test (eps (cond V + 4n))
+    states = Fs.shape[1]
+    steps = (t - t[0]) / ((t[-1] - t[0]) / (t.size - 1)) + 1.0
+    vandermonde = steps[: 4 * states, None] ** np.arange(states)[None, :]
+    allowed = 2 * np.finfo(float).eps * (np.linalg.cond(vandermonde) + 4 * x.size)
+    assert np.max(np.abs(fast - smoothed)) <= allowed * np.max(np.abs(x))
