@@ -130,6 +130,42 @@ def smooth(z, mean0, transitions, gains, smoothers, mixes) -> np.ndarray:
     return _loop(wide, z, mean0, transitions, gains, smoothers, mixes, states)
 
 
+@numba.njit(inline="always")
+def _update(predicted, R, gain, covariance, update):  # pragma: no cover
+    """The measurement update of :func:`covariance_steps` (Joseph's form, H = [1, 0, ...]):
+    the gain and the filtered covariance from the predicted one, into ``gain`` and
+    ``covariance`` (``update``: scratch, m by m)."""
+    m = predicted.shape[0]
+    denominator = predicted[0, 0] + R
+    for i in range(m):
+        gain[i] = predicted[i, 0] / denominator
+    for i in range(m):
+        for j in range(m):
+            update[i, j] = predicted[i, j] - gain[i] * predicted[0, j]
+    for i in range(m):
+        for j in range(m):
+            covariance[i, j] = (update[i, j] - update[i, 0] * gain[j]) + R * (gain[i] * gain[j])
+
+
+@numba.njit(inline="always")
+def _predict(F, Q, covariance, product, predicted):  # pragma: no cover
+    """The prediction of :func:`covariance_steps`, :math:`F P F^\\top + Q`, into
+    ``predicted`` (``product``: scratch, m by m), each entry summed in index order."""
+    m = F.shape[0]
+    for i in range(m):  # F P
+        for j in range(m):
+            total = 0.0
+            for k in range(m):
+                total += F[i, k] * covariance[k, j]
+            product[i, j] = total
+    for i in range(m):  # (F P) Fᵀ + Q
+        for j in range(m):
+            total = 0.0
+            for k in range(m):
+                total += product[i, k] * F[j, k]
+            predicted[i, j] = total + Q[i, j]
+
+
 @numba.njit(cache=True)
 def covariance_steps(
     F,
@@ -165,28 +201,9 @@ def covariance_steps(
     for step in range(gains.shape[0]):
         gain = gains[step]
         covariance = covariances[step]
-        denominator = predicted[0, 0] + R
-        for i in range(m):
-            gain[i] = predicted[i, 0] / denominator
-        for i in range(m):
-            for j in range(m):
-                update[i, j] = predicted[i, j] - gain[i] * predicted[0, j]
-        for i in range(m):
-            for j in range(m):
-                covariance[i, j] = (update[i, j] - update[i, 0] * gain[j]) + R * (gain[i] * gain[j])
-        for i in range(m):  # F P
-            for j in range(m):
-                total = 0.0
-                for k in range(m):
-                    total += F[i, k] * covariance[k, j]
-                product[i, j] = total
-        for i in range(m):  # (F P) Fᵀ + Q
-            for j in range(m):
-                total = 0.0
-                for k in range(m):
-                    total += product[i, k] * F[j, k]
-                predicted[i, j] = total + Q[i, j]
-                predictions[step, i, j] = predicted[i, j]
+        _update(predicted, R, gain, covariance, update)
+        _predict(F, Q, covariance, product, predicted)
+        predictions[step] = predicted
         converged = True
         for i in range(m):
             if abs(gain[i] - target_gain[i]) > gain_tolerance:
@@ -217,32 +234,23 @@ def varying_covariance_steps(
     for step in range(n):
         gain = gains[step]
         covariance = covariances[step]
-        denominator = predicted[0, 0] + R
-        for i in range(m):
-            gain[i] = predicted[i, 0] / denominator
-        for i in range(m):
-            for j in range(m):
-                update[i, j] = predicted[i, j] - gain[i] * predicted[0, j]
-        for i in range(m):
-            for j in range(m):
-                covariance[i, j] = (update[i, j] - update[i, 0] * gain[j]) + R * (gain[i] * gain[j])
+        _update(predicted, R, gain, covariance, update)
         if step == n - 1:
             break
-        F, Q = Fs[step + 1], Qs[step + 1]
-        for i in range(m):  # F P
-            for j in range(m):
-                total = 0.0
-                for k in range(m):
-                    total += F[i, k] * covariance[k, j]
-                product[i, j] = total
-        for i in range(m):  # (F P) Fᵀ + Q
-            for j in range(m):
-                total = 0.0
-                for k in range(m):
-                    total += product[i, k] * F[j, k]
-                predicted[i, j] = total + Q[i, j]
-                predictions[step, i, j] = predicted[i, j]
+        _predict(Fs[step + 1], Qs[step + 1], covariance, product, predicted)
+        predictions[step] = predicted
     return gains
+
+
+def padded_tables(transitions, gains, smoothers, mixes, width: int) -> tuple:
+    """The four step tables of :func:`smooth` (A, K, C, I - CF), each padded by :func:`padded`
+    to ``width`` states."""
+    return (
+        padded(transitions, 2, width),
+        padded(gains, 1, width),
+        padded(smoothers, 2, width),
+        padded(mixes, 2, width),
+    )
 
 
 def padded(array: np.ndarray, axes: int, size: int) -> np.ndarray:

@@ -205,12 +205,7 @@ def step_tables(
     smoothers = np.concatenate([smoother_gains.reshape(-1, m, m), steady.smoother_gain[None]])
     transitions = F[None] - gains[:, :, None] * F[0][None, None, :]
     mixes = np.eye(m)[None] - smoothers @ F
-    return (
-        loops.padded(transitions, 2, width),
-        loops.padded(gains, 1, width),
-        loops.padded(smoothers, 2, width),
-        loops.padded(mixes, 2, width),
-    )
+    return loops.padded_tables(transitions, gains, smoothers, mixes, width)
 
 
 RECURSION_CHUNK = 256
@@ -404,12 +399,7 @@ def irregular_smooth(
     mixes[:-1] -= smoothers[:-1] @ Fs[1:]
     transitions = Fs - gains[:, :, None] * Fs[:, 0][:, None, :]
     width = loops.width(m)
-    tables = (
-        loops.padded(transitions, 2, width),
-        loops.padded(gains, 1, width),
-        loops.padded(smoothers, 2, width),
-        loops.padded(mixes, 2, width),
-    )
+    tables = loops.padded_tables(transitions, gains, smoothers, mixes, width)
     start = loops.padded(np.asarray(mean0, dtype=float).T, 1, width)
     states = loops.smooth(np.asarray(z, dtype=float).T, start, *tables)  # (channels, n, width)
     return states[:, :, :m].transpose(1, 2, 0)
