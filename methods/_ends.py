@@ -110,9 +110,16 @@ def trusted_samples(
     orders: tuple[int, ...],
     factor: float = END_ERROR_FACTOR,
     short_record_middle: bool = False,
+    skip: int = 0,
 ) -> dict:
     """Boolean masks (one per order) of the samples whose estimate is trusted (see the module
     docstring). ``method`` is linear and declares ``end_reach(dt)``; cached.
+
+    ``skip``: the first and last ``skip`` samples are not read (:func:`unread_end_samples`):
+    the probe is estimated by ``method._estimate_skipping_ends``, which may leave them NaN
+    (they then come back not trusted); every other sample's mask is the full check's, bit for
+    bit (an end is trusted from just after its last failing sample, and failures nearer the
+    end than the samples read change none of theirs).
 
     ``factor`` is the criterion's c. With ``short_record_middle``, a record shorter than
     ``2 reach + 1`` samples (where no sample reaches the interior response) is judged against
@@ -122,7 +129,13 @@ def trusted_samples(
     scale near the span of a smooth short record); given settings are refused there instead.
     """
     return _trusted(
-        method, int(n_samples), float(dt), tuple(orders), float(factor), bool(short_record_middle)
+        method,
+        int(n_samples),
+        float(dt),
+        tuple(orders),
+        float(factor),
+        bool(short_record_middle),
+        int(skip),
     )
 
 
@@ -134,6 +147,7 @@ def _trusted(
     orders: tuple[int, ...],
     factor: float,
     short_record_middle: bool,
+    skip: int = 0,
 ) -> dict:
     reach = method.end_reach(dt)
     length = probe_length(method, n_samples, dt)
@@ -147,14 +161,20 @@ def _trusted(
     # with each channel reversed in time too: a method symmetric under time reversal gets the
     # same gains at both ends, hence symmetric masks
     noise_probe = np.concatenate([signs, signs[::-1]], axis=1)
-    noise_values, _ = method._estimate(noise_probe, dt, orders)
+
+    def estimate(probe, orders):
+        if skip:
+            return method._estimate_skipping_ends(probe, dt, orders, skip)[0]
+        return method._estimate(probe, dt, orders)[0]
+
+    noise_values = estimate(noise_probe, orders)
     for order in orders:
         frequencies = np.linspace(1.0 / PROBE_FREQUENCIES, 1.0, PROBE_FREQUENCIES) * edges[order]
         # e^{-iφ}: its real part and minus its imaginary part are the cosine and sine probes
         # (the same values as np.cos and np.sin: one transcendental evaluation, not two)
         rotation = np.exp(-1j * (2 * np.pi * np.outer(time, frequencies)))
         probe = np.concatenate([rotation.real, -rotation.imag], axis=1)
-        values, _ = method._estimate(probe, dt, (order,))
+        values = estimate(probe, (order,))
         output = values[order][:, :PROBE_FREQUENCIES] + 1j * values[order][:, PROBE_FREQUENCIES:]
         response = output * rotation
         ideal = ideal_response(frequencies, order)
@@ -198,6 +218,17 @@ def check_reaches(method, n_samples: int, dt: float, first: int, last: int) -> b
     if probe_length(method, n_samples, dt) >= n_samples:
         return True
     return not reach <= first <= last < n_samples - reach
+
+
+def unread_end_samples(method, n_samples: int, dt: float, first: int, last: int) -> int:
+    """How many samples at each end of a record of ``n_samples`` a caller reading samples
+    ``first`` to ``last`` leaves unread, for ``method``'s ends check and end treatment to skip
+    (``Method.estimate_within``): ``min(first, n - 1 - last)``, at most ``end_reach(dt)``;
+    0 on a record no longer than the probe (:func:`probe_length`), where the check judges the
+    middle sample too."""
+    if probe_length(method, n_samples, dt) >= n_samples:
+        return 0
+    return max(0, min(int(first), n_samples - 1 - int(last), method.end_reach(dt)))
 
 
 def _from_last_failure(passes: np.ndarray) -> np.ndarray:

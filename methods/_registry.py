@@ -18,7 +18,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from diffbench.methods._ends import check_reaches, trusted_samples
+from diffbench.methods._ends import check_reaches, trusted_samples, unread_end_samples
 from diffbench.methods._fir import apply_central_firs, fir_response
 from diffbench.methods._plugins import (
     distributions_of_modules,
@@ -461,8 +461,12 @@ class Method:
         is skipped, and so is the end treatment of a method that saves by it
         (:meth:`_estimate_away_from_ends`): the samples read have the values and validity of
         the full call, bit for bit, and the samples outside them come back unchecked (marked
-        valid where finite) or, where the end treatment was skipped, NaN and invalid.
-        Otherwise, and for irregular records, this is the full call."""
+        valid where finite) or, where the end treatment was skipped, NaN and invalid. When
+        they reach an end, a method with :attr:`skips_unread_ends` neither fits nor checks the
+        end samples nearer the ends than both ``first`` and ``n - 1 - last``
+        (:func:`~diffbench.methods._ends.unread_end_samples`): those come back NaN and
+        invalid, the samples read as in the full call, bit for bit. Otherwise, and for
+        irregular records, this is the full call."""
         return self._uniform(x, dt, orders, reads=(int(first), int(last)), marks=bool(marks))
 
     def _uniform(
@@ -479,16 +483,21 @@ class Method:
         self._check_longest(n, dt)
         self.check_step(dt)
         reach = self.end_reach(dt) if self.linear else None
+        skip = 0
         if reach and reads is not None and not check_reaches(self, n, dt, *reads):
             # neither the ends check nor the end treatment can reach the samples read
             values, valid = self._estimate_away_from_ends(x, dt, orders)
             reach = None
+        elif reach and reads is not None and self.skips_unread_ends:
+            # the end samples nearer an end than those read: neither fitted nor checked
+            skip = unread_end_samples(self, n, dt, *reads)
+            values, valid = self._estimate_skipping_ends(x, dt, orders, skip)
         else:
             values, valid = self._estimate(x, dt, orders)
         if reach and marks:
             # a record too short for any sample to be within the method's own accuracy keeps
             # its estimates, none of them valid
-            trusted = trusted_samples(self, n, dt, orders)
+            trusted = trusted_samples(self, n, dt, orders, skip=skip)
             for order in orders:
                 valid[order] = valid[order] & trusted[order]
         return Estimate(values=values, valid=valid)
@@ -553,6 +562,17 @@ class Method:
         either end (:meth:`estimate_within`): a method whose end treatment costs may leave
         those samples NaN and invalid, the others bit for bit as :meth:`_estimate` gives
         them. By default the full :meth:`_estimate`."""
+        return self._estimate(x, dt, orders)
+
+    skips_unread_ends: ClassVar[bool] = False
+    """Whether :meth:`_estimate_skipping_ends` saves: a method whose end estimates cost (fits
+    per end sample) and are each independent of the others."""
+
+    def _estimate_skipping_ends(self, x: np.ndarray, dt: float, orders: tuple[int, ...], skip: int):
+        """:meth:`_estimate` for a caller that reads no sample among the first and last
+        ``skip`` (:meth:`estimate_within`, with :attr:`skips_unread_ends`): those may come
+        back NaN and invalid, the others bit for bit as :meth:`_estimate` gives them. By
+        default the full :meth:`_estimate`."""
         return self._estimate(x, dt, orders)
 
 

@@ -470,14 +470,18 @@ class Jacobi(FirMethod):
         inside = min(inside, max(edge, carrying - 1))
         return np.round(edge + (inside - edge) * np.arange(m) / m).astype(int)
 
-    def _boundary_ends(self, x, dt, order: int, m: int, filtered: np.ndarray) -> np.ndarray:
+    def _boundary_ends(
+        self, x, dt, order: int, m: int, filtered: np.ndarray, skip: int = 0
+    ) -> np.ndarray:
         """``filtered`` (the central filter's output) with its first and last ``m`` samples the
-        boundary fits of ``ends="boundary"``, at :meth:`_boundary_degrees`."""
+        boundary fits of ``ends="boundary"``, at :meth:`_boundary_degrees`; the first and last
+        ``skip`` of them NaN, not fitted (each fit is its own: the others are unchanged)."""
         n = x.shape[0]
         size = min(n, 2 * m + 1)
+        skip = min(skip, m)
         out = np.array(filtered, dtype=np.float64).reshape(n, -1)
         if m * size <= LAST_END_WEIGHTS:
-            starts, ends = _boundary_weights(self, order, m, size)
+            starts, ends = _boundary_weights(self, order, m, size, skip)
             scale = 1.0 / dt**order
             out[:m] = scale * (starts @ x[:size].reshape(size, -1))
             out[n - m :] = scale * (ends @ x[n - size :].reshape(size, -1))
@@ -488,10 +492,14 @@ class Jacobi(FirMethod):
 
         degrees = self._boundary_degrees(order, m)
         times = np.arange(size) * dt
+        out[:skip] = out[n - skip :] = np.nan
         for degree in np.unique(degrees):
             at = np.flatnonzero(degrees == degree)
+            at = at[at >= skip]
             if degree < order:  # too few samples carry weight to fit a derivative of order
                 out[at] = out[n - 1 - at] = np.nan
+                continue
+            if not at.size:
                 continue
             fit = (m * dt, int(degree), order, weight)
             out[at] = kernel_weighted_fit_at(x[:size], times, at, *fit)
@@ -503,7 +511,13 @@ class Jacobi(FirMethod):
         # boundary fits cost O(M^2) a record (seconds at M in the thousands, 0.1 ms steps)
         return super()._estimate(x, dt, orders)
 
+    skips_unread_ends = True
+
     def _estimate(self, x, dt, orders):
+        return self._estimate_skipping_ends(x, dt, orders, 0)
+
+    def _estimate_skipping_ends(self, x, dt, orders, skip):
+        # the boundary fits cost O(m^2) a setting (QRs); each end sample's is its own
         if self.ends == "central":
             return super()._estimate(x, dt, orders)
         values, valid = {}, {}
@@ -517,7 +531,7 @@ class Jacobi(FirMethod):
                     raise ValueError(
                         f"`x` has {x.shape[0]} samples, fewer than the window's {2 * m + 1}"
                     )
-                values[order] = self._boundary_ends(x, dt, order, m, central[order][0])
+                values[order] = self._boundary_ends(x, dt, order, m, central[order][0], skip)
             else:
                 weights = self._weights(m)
                 # a fit needs degree + 1 samples that carry weight: the end nodes carry none
@@ -609,21 +623,23 @@ estimate, then its bias and noise parts for each order), 0.3 s windows at 0.1 ms
 (the grid's) are 2963 samples wide. Wider ones are fitted record by record."""
 
 
-def _boundary_weights(method: Jacobi, order: int, m: int, size: int):
+def _boundary_weights(method: Jacobi, order: int, m: int, size: int, skip: int = 0):
     """:func:`_fitted_boundary_weights`, kept for the last 8 settings up to
     ``CACHED_END_WEIGHTS``, for the last one up to ``LAST_END_WEIGHTS``."""
     if m * size <= CACHED_END_WEIGHTS:
-        return _kept_boundary_weights(method, order, m, size)
-    return _last_boundary_weights(method, order, m, size)
+        return _kept_boundary_weights(method, order, m, size, skip)
+    return _last_boundary_weights(method, order, m, size, skip)
 
 
-def _fitted_boundary_weights(method: Jacobi, order: int, m: int, size: int):
+def _fitted_boundary_weights(method: Jacobi, order: int, m: int, size: int, skip: int = 0):
     """The boundary fits of ``ends="boundary"`` as weights, in steps (dt = 1): the matrices
     (m by ``size``) giving end samples 0..m-1 from the first ``size`` samples and samples
     n-m..n-1 from the last ``size``, at :meth:`Jacobi._boundary_degrees` (rows of NaN where
-    the degree is below ``order``). The same for every record of a length at least ``size``
-    and every step (the fit scales as 1/dt^order), so computed once per setting: the QR
-    factorisations cost O(m^2 d^2), the product O(m^2) a record."""
+    the degree is below ``order``, and for the first and last ``skip`` samples, not fitted:
+    each row is its own fit, the same bits with or without the others). The same for every
+    record of a length at least ``size`` and every step (the fit scales as 1/dt^order), so
+    computed once per setting: the QR factorisations cost O(m^2 d^2), the product O(m^2) a
+    record."""
 
     def weight(offset_steps):
         return method._end_weight(offset_steps / m)
@@ -634,7 +650,8 @@ def _fitted_boundary_weights(method: Jacobi, order: int, m: int, size: int):
     ends = np.full((m, size), np.nan)
     for degree in np.unique(degrees):
         at = np.flatnonzero(degrees == degree)
-        if degree < order:  # too few samples carry weight to fit a derivative of order
+        at = at[at >= skip]
+        if degree < order or not at.size:  # too few samples carry weight, or none read
             continue
         fit = (float(m), int(degree), order, weight)
         starts[at] = kernel_weighted_weights_at(times, at, *fit)

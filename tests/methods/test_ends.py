@@ -255,7 +255,8 @@ def test_gaussian_process_ml_masks_a_sample_unless_every_channel_trusts_it():
 def test_an_estimate_read_beyond_the_ends_is_the_full_estimate_there(name, params):
     """``estimate_within`` skips the ends check only where it cannot reach the samples read:
     those come out as the full call's, bit for bit, and reads that reach an end get the full
-    call (its masks included)."""
+    call (its masks included) on the samples read; on the others too, but for a method that
+    skips the unread end samples (``skips_unread_ends``): those NaN and invalid."""
     method = methods.get(name, **params)
     reach = method.end_reach(DT) if method.linear else None
     if not reach:
@@ -273,11 +274,21 @@ def test_an_estimate_read_beyond_the_ends_is_the_full_estimate_there(name, param
         assert np.array_equal(read[order][inside], full[order][inside], equal_nan=True)
         assert np.array_equal(read.valid[order][inside], full.valid[order][inside])
     # one sample nearer an end: the check runs, and the result is the full call's
-    for reads in ((first - 1, last), (first, last + 1)):
+    for reads in ((first - 1, last), (first, last + 1), (first // 2, n - 1 - first // 3)):
         near = method.estimate_within(x, DT, (0, 1, 2), *reads)
+        skip = min(reads[0], n - 1 - reads[1]) if method.skips_unread_ends else 0
+        kept, unread = slice(skip, n - skip), np.r_[0:skip, n - skip : n]
+        skipped = 0
         for order in (0, 1, 2):
-            assert np.array_equal(near[order], full[order], equal_nan=True)
-            assert np.array_equal(near.valid[order], full.valid[order])
+            assert np.array_equal(near[order][kept], full[order][kept], equal_nan=True)
+            assert np.array_equal(near.valid[order][kept], full.valid[order][kept])
+            # the first and last `skip` samples: neither fitted nor checked (NaN, invalid)
+            # within the order's own end treatment, the central filter's beyond it
+            missing = np.isnan(near[order][unread])
+            assert not near.valid[order][unread][missing].any()
+            assert np.array_equal(near[order][unread][~missing], full[order][unread][~missing])
+            skipped += int(missing.sum())
+        assert skipped >= skip > 0 or skip == 0
 
 
 def test_estimate_within_skips_the_check_only_where_it_cannot_matter():
