@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import functools
+import hashlib
 import math
 
 import numpy as np
@@ -587,7 +589,17 @@ class Jacobi(FirMethod):
                     flat, times, at, reach_s, int(degree), order, kernel, centres_s
                 )
 
-        fit(np.flatnonzero(inside), self._fit_degree(order))
+        # the central fits depend on the weight's exponents and the degree alone (not the
+        # rule, nor the end treatment): kept for the settings a tuning tries with each
+        design = (max(self.kappa, 0.0), max(self.mu, 0.0), self._fit_degree(order))
+        key = (_record_key(flat, times), order, float(reach_s), *design)
+        central = _kept_central_fits.get(key)
+        if central is None:
+            at = np.flatnonzero(inside)
+            fit(at, design[2])
+            _kept_central_fits.put(key, out[at])  # a copy (fancy indexing)
+        else:
+            out[inside] = central
         edge = np.flatnonzero(~inside)
         if self.ends == "boundary":
             # the degree rises with the distance to the nearest end, as on the uniform grid
@@ -611,10 +623,77 @@ class Jacobi(FirMethod):
         return self._fit_degree(order)
 
 
+KEPT_CENTRAL_FITS_BYTES = 64 * 2**20
+"""The most bytes of central fits at time stamps kept (:data:`_kept_central_fits`), the least
+recently used dropped first: 64 MiB, e.g. 840 settings' fits of a 10^4-sample channel."""
+
+
+def _record_key(flat: np.ndarray, times: np.ndarray) -> tuple:
+    """A record's samples and time stamps as a key: their shapes and a BLAKE2b digest of
+    their bytes (a collision would need about 2^80 records)."""
+    digest = hashlib.blake2b(digest_size=20)
+    digest.update(np.ascontiguousarray(flat, dtype=np.float64).tobytes())
+    digest.update(np.ascontiguousarray(times, dtype=np.float64).tobytes())
+    return (flat.shape, times.shape, digest.digest())
+
+
+class _Kept:
+    """Read-only arrays (or tuples of them) by key, the least recently used dropped beyond
+    ``maxsize`` bytes; ``cache_clear`` and ``cache_parameters`` as ``functools.lru_cache``
+    has them (so that what empties the methods' bounded caches empties these too)."""
+
+    def __init__(self, maxsize: int) -> None:
+        self._values: collections.OrderedDict[tuple, tuple] = collections.OrderedDict()
+        self._bytes = 0
+        self._maxsize = maxsize
+
+    def get(self, key: tuple):
+        found = self._values.get(key)
+        if found is None:
+            return None
+        self._values.move_to_end(key)
+        return found[0]
+
+    def put(self, key: tuple, value) -> None:
+        arrays = value if isinstance(value, tuple) else (value,)
+        for array in arrays:
+            array.flags.writeable = False
+        size = sum(array.nbytes for array in arrays)
+        if key in self._values:
+            self._bytes -= self._values.pop(key)[1]
+        self._values[key] = (value, size)
+        self._bytes += size
+        while self._bytes > self._maxsize and len(self._values) > 1:
+            self._bytes -= self._values.popitem(last=False)[1][1]
+
+    def __len__(self) -> int:
+        return len(self._values)
+
+    def cache_clear(self) -> None:
+        self._values.clear()
+        self._bytes = 0
+
+    def cache_parameters(self) -> dict:
+        return {"maxsize": self._maxsize, "typed": False}
+
+
+_kept_central_fits = _Kept(KEPT_CENTRAL_FITS_BYTES)
+"""The central fits of :meth:`Jacobi._fits_at` by record, order, reach and design. On
+irregular records a Jacobi tuning tries each setting of its numbers once per rule and end
+treatment (nine combinations): their central fits, a QR for every sample's window, are the
+same, computed once and read eight times."""
+
+
 CACHED_END_WEIGHTS = 4_000_000
 """The most weights (end samples times window samples, per end) of Jacobi's boundary fits
-kept for reuse for the last 8 settings: 32 MB an end, windows up to 2827 samples. With the 8
-settings kept, at most 512 MB."""
+kept for reuse among many settings (:data:`KEPT_END_WEIGHTS_BYTES` in all): 32 MB an end,
+windows up to 2827 samples."""
+
+KEPT_END_WEIGHTS_BYTES = 256 * 2**20
+"""The most bytes of boundary weights kept (:data:`_kept_end_weights`), the least recently
+used dropped first: a tuning tries each setting of its numbers once per rule, whose boundary
+fits are the same (the rule discretises the central kernel only), and its differential
+evolutions start from the same Sobol points."""
 
 LAST_END_WEIGHTS = 25_000_000
 """The most weights of the boundary fits kept for the last setting only (200 MB an end,
@@ -624,11 +703,30 @@ estimate, then its bias and noise parts for each order), 0.3 s windows at 0.1 ms
 
 
 def _boundary_weights(method: Jacobi, order: int, m: int, size: int, skip: int = 0):
-    """:func:`_fitted_boundary_weights`, kept for the last 8 settings up to
-    ``CACHED_END_WEIGHTS``, for the last one up to ``LAST_END_WEIGHTS``."""
-    if m * size <= CACHED_END_WEIGHTS:
-        return _kept_boundary_weights(method, order, m, size, skip)
-    return _last_boundary_weights(method, order, m, size, skip)
+    """:func:`_fitted_boundary_weights`, kept by the parameters they depend on (not the rule,
+    nor the windows in seconds: :func:`_end_design`) up to ``CACHED_END_WEIGHTS`` a setting,
+    for the last setting only up to ``LAST_END_WEIGHTS``."""
+    if m * size > CACHED_END_WEIGHTS:
+        return _last_boundary_weights(method, order, m, size, skip)
+    key = (_end_design(method), order, m, size, skip)
+    found = _kept_end_weights.get(key)
+    if found is None:
+        found = _fitted_boundary_weights(method, order, m, size, skip)
+        _kept_end_weights.put(key, found)
+    return found
+
+
+def _end_design(method: Jacobi) -> tuple:
+    """What the boundary fits depend on besides the order and the sizes: the weight's
+    exponents, q, and the end degree and exponent (:meth:`Jacobi._boundary_degrees`,
+    :meth:`Jacobi._end_weight`)."""
+    return (
+        float(method.kappa),
+        float(method.mu),
+        int(method.q),
+        int(method.end_degree),
+        float(method.end_exponent),
+    )
 
 
 def _fitted_boundary_weights(method: Jacobi, order: int, m: int, size: int, skip: int = 0):
@@ -661,7 +759,7 @@ def _fitted_boundary_weights(method: Jacobi, order: int, m: int, size: int, skip
     return starts, ends
 
 
-_kept_boundary_weights = functools.lru_cache(maxsize=8)(_fitted_boundary_weights)
+_kept_end_weights = _Kept(KEPT_END_WEIGHTS_BYTES)
 _last_boundary_weights = functools.lru_cache(maxsize=1)(_fitted_boundary_weights)
 
 

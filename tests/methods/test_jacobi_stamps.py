@@ -168,3 +168,30 @@ def test_stamps_spanning_less_than_a_window_are_refused_naming_t_and_the_window(
     method = methods.get("jacobi", **SETTING)  # windows of 40 and 50 ms
     with pytest.raises(ValueError, match=r"^`t` spans .* s, shorter than `window_s`=0.04 s"):
         method(np.sin(t), t=t)
+
+
+def test_the_central_fits_are_computed_once_for_every_rule_and_end_treatment():
+    """A tuning tries each setting of the numbers once per rule and end treatment: at time
+    stamps their central fits are the same, kept from the first and read by the others (no
+    new entry), and every estimate is the one computed afresh, bit for bit."""
+    from itertools import product
+
+    from diffbench.methods import jacobi
+
+    times = jittered(400)
+    x = np.sin(2 * np.pi * 3 * times) + 0.01 * np.random.default_rng(8).standard_normal(400)
+    jacobi._kept_central_fits.cache_clear()
+    combinations = list(product(("trapezoid", "linear", "least_squares"), jacobi.ENDS))
+    read = []
+    for rule, ends in combinations:
+        read.append(methods.get("jacobi", **SETTING, rule=rule, ends=ends)(x, DT, t=times))
+        assert len(jacobi._kept_central_fits) == 3  # orders 0, 1, 2 of one design
+    for (rule, ends), kept in zip(combinations, read, strict=True):
+        jacobi._kept_central_fits.cache_clear()
+        fresh = methods.get("jacobi", **SETTING, rule=rule, ends=ends)(x, DT, t=times)
+        for order in (0, 1, 2):
+            assert np.array_equal(kept[order], fresh[order], equal_nan=True)
+            assert np.array_equal(kept.valid[order], fresh.valid[order])
+    # another design is another entry
+    methods.get("jacobi", **{**SETTING, "kappa": 2.0})(x, DT, t=times)
+    assert len(jacobi._kept_central_fits) == 6
