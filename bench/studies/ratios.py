@@ -159,6 +159,8 @@ def forget_settings() -> None:
         if not getattr(module, "__name__", "").startswith("diffbench.methods"):
             continue
         for value in vars(module).values():
+            if isinstance(value, type):  # a cache's class, not a cache
+                continue
             parameters = getattr(value, "cache_parameters", None)
             if parameters is not None and parameters()["maxsize"] is not None:
                 value.cache_clear()

@@ -76,16 +76,23 @@ def test_the_speed_ratios_check_that_ours_and_the_peers_agree(tmp_path):
 
 
 def test_forget_settings_empties_the_per_setting_caches_and_keeps_the_registry():
-    from diffbench.methods import _ends, _registry, butterworth
+    from diffbench.methods import _ends, _registry, butterworth, jacobi
 
     method = methods.get("butterworth", order=4, cutoff_hz=20.0)
     method(np.random.default_rng(0).standard_normal(500), 1e-3)
     _registry.params_of(type(method))
+    # Jacobi's kept boundary weights and central fits at time stamps (byte-bounded caches)
+    times = np.arange(500) * 1e-3
+    x = np.sin(2 * np.pi * 3 * times)
+    methods.get("jacobi", window_s=0.05, accel_window_s=0.05)(x, 1e-3)
+    methods.get("jacobi", window_s=0.05, accel_window_s=0.05)(x, 1e-3, t=times + 1e-5 * x)
     assert _ends._trusted.cache_info().currsize > 0
     assert butterworth._butter_sos.cache_info().currsize > 0
+    assert len(jacobi._kept_end_weights) > 0 and len(jacobi._kept_central_fits) > 0
     ratios.forget_settings()
     assert _ends._trusted.cache_info().currsize == 0
     assert butterworth._butter_sos.cache_info().currsize == 0
+    assert len(jacobi._kept_end_weights) == 0 and len(jacobi._kept_central_fits) == 0
     assert _registry.params_of.cache_info().currsize > 0  # unbounded: not a setting's
 
 
