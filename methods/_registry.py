@@ -488,9 +488,8 @@ class Method:
             # neither the ends check nor the end treatment can reach the samples read
             values, valid = self._estimate_away_from_ends(x, dt, orders)
             reach = None
-        elif reach and reads is not None and self.skips_unread_ends:
+        elif reach and (skip := self._unread_ends(n, dt, reads)):
             # the end samples nearer an end than those read: neither fitted nor checked
-            skip = unread_end_samples(self, n, dt, *reads)
             values, valid = self._estimate_skipping_ends(x, dt, orders, skip)
         else:
             values, valid = self._estimate(x, dt, orders)
@@ -567,6 +566,15 @@ class Method:
     skips_unread_ends: ClassVar[bool] = False
     """Whether :meth:`_estimate_skipping_ends` saves: a method whose end estimates cost (fits
     per end sample) and are each independent of the others."""
+
+    def _unread_ends(self, n_samples: int, dt: float, reads: tuple[int, int] | None) -> int:
+        """The first and last samples :meth:`estimate_within` neither fits nor checks for a
+        caller reading ``reads`` (first, last) of a record of ``n_samples``
+        (:func:`~diffbench.methods._ends.unread_end_samples`); 0 without reads or for a
+        method without :attr:`skips_unread_ends`."""
+        if reads is None or not self.skips_unread_ends:
+            return 0
+        return unread_end_samples(self, n_samples, dt, *reads)
 
     def _estimate_skipping_ends(self, x: np.ndarray, dt: float, orders: tuple[int, ...], skip: int):
         """:meth:`_estimate` for a caller that reads no sample among the first and last

@@ -17,7 +17,7 @@ from diffbench import methods, signals
 from diffbench.bench.core import tuning
 from diffbench.bench.core.scores import estimate_on
 from diffbench.bench.studies.timing import DT, _best_seconds, _package, noisy_sine
-from diffbench.methods._ends import _trusted, check_reaches, trusted_samples, unread_end_samples
+from diffbench.methods._ends import _trusted, check_reaches, trusted_samples
 from diffbench.methods.kalman import initial_state
 
 
@@ -290,8 +290,7 @@ def ends_check_share(name: str, record, settings, order: int = 1) -> float:
         if reach and check_reaches(method, n, dt, *reads):
             _trusted.cache_clear()
             start = time.perf_counter()
-            skip = unread_end_samples(method, n, dt, *reads) if cls.skips_unread_ends else 0
-            trusted_samples(method, n, dt, (order,), skip=skip)
+            trusted_samples(method, n, dt, (order,), skip=method._unread_ends(n, dt, reads))
             checks += time.perf_counter() - start
     return checks / evaluations if evaluations else float("nan")
 
